@@ -1,0 +1,64 @@
+// One Config for the whole model, read from YAML (cut_replay --config) or, in the node, from the
+// parameter server. Keys nest with '/' (cut/blade_length) exactly as in config/tissue.yaml.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "tissue_cut/mesh/tet_mesh.hpp"
+
+namespace tissue_cut {
+
+/// A configuration value or file that cannot be used; what() names the key or file.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Every setting of the model. Defaults equal config/tissue.yaml (a test holds them together).
+struct Config {
+  double rate = 1000.0;          ///< simulation ticks per second [Hz]
+  double publish_rate = 30.0;    ///< markers and statistics per second [Hz]
+  std::string frame_id = "world";///< the mesh frame
+  std::string mesh;              ///< mesh file; empty = the built-in block
+  std::size_t mesh_max_tets = 2000000;  ///< larger mesh files are refused [count]
+  double block_cell_size = 0.006;       ///< built-in block's cell edge [m]
+
+  struct Cut {
+    double blade_length = 0.03;  ///< along the tool's -z from its origin [m]
+    double max_jump = 0.02;      ///< a longer move in one tick lifts the blade [m]
+  } cut;
+
+  struct Collapse {
+    bool enabled = true;
+    double tau = 0.3;           ///< quality threshold: created tets below it queue an edge
+    double budget_us = 300.0;   ///< collapse work per tick [us]; 0 = unbounded
+  } collapse;
+
+  struct Physics {
+    bool enabled = true;
+    std::string integrator = "implicit";  ///< "implicit" (backward Euler + CG) or "semi_implicit"
+    double density = 1000.0;              ///< [kg/m^3]
+    double young_modulus = 5000.0;        ///< [Pa]
+    double damping = 2.0;                 ///< mass-proportional damping [1/s]
+    Vec3 gravity{0.0, 0.0, -9.81};        ///< [m/s^2]
+    std::string fixed_axis = "z";         ///< x, y or z
+    std::string fixed_side = "min";       ///< min or max
+    double fixed_band = 0.001;            ///< vertices this close to that side are fixed [m]
+  } physics;
+
+  /// The first invalid value as "key: why", or "" when all are usable.
+  std::string check() const;
+  /// The fixed axis as 0, 1 or 2.
+  int fixedAxisIndex() const;
+};
+
+/// Overrides `base` with the keys present in a YAML file. Unknown keys, wrong types and values
+/// that fail Config::check() throw ConfigError naming the file and key.
+Config loadConfigFile(const std::string& path, const Config& base = Config{});
+
+/// Every key of Config as it is spelled in YAML and on the parameter server.
+std::vector<std::string> configKeys();
+
+}  // namespace tissue_cut

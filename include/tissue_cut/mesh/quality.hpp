@@ -1,0 +1,39 @@
+// Tetrahedron quality Q = 3 * inradius / circumradius, the paper's measure (VTK's radius ratio
+// is its inverse).
+#pragma once
+
+#include <array>
+
+#include "tissue_cut/mesh/tet_mesh.hpp"
+
+namespace tissue_cut {
+
+/// Q in [0, 1] of the tet (a, b, c, d) [m]: 1 for the regular tet, 0 for a degenerate one.
+/// Orientation does not matter.
+double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+
+/// Inradius and circumradius of the tet (a, b, c, d) [m]; 0 and +inf for a degenerate one.
+double tetInradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+double tetCircumradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+
+/// Q of tet t in rest (the material) or current positions.
+double restQuality(const TetMesh& mesh, int t);
+double currentQuality(const TetMesh& mesh, int t);
+
+/// The shortest edge of tet t in rest positions, as (vertex, vertex).
+std::array<int, 2> shortestRestEdge(const TetMesh& mesh, int t);
+
+/// Summary of Q over a set of tets: min, mean and a 10-bin histogram on [0, 1].
+struct QualitySummary {
+  double min = 0.0;
+  double mean = 0.0;
+  std::array<int, 10> histogram{};
+  int count = 0;
+  int below_tau = 0;  ///< tets with Q < the tau given to summarizeQuality
+};
+
+/// Summarises rest Q over all live tets, or over those with flag[t] != 0 when flag is given.
+QualitySummary summarizeQuality(const TetMesh& mesh, double tau = 0.0,
+                                const std::vector<unsigned char>* flag = nullptr);
+
+}  // namespace tissue_cut

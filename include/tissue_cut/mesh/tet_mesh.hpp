@@ -1,0 +1,139 @@
+// TetMesh: the one owner of the tissue's topology, with rest and current geometry.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace tissue_cut {
+
+using Vec3 = Eigen::Vector3d;
+using TetVerts = std::array<int, 4>;
+
+/// Face f of a tet is opposite its local vertex f. The listed order makes the face normal
+/// (right-hand rule) point out of a positively oriented tet.
+constexpr int kTetFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+/// The six edges of a tet as pairs of local vertices.
+constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
+/// A new vertex is an affine combination of existing ones (weights sum to 1).
+struct VertexParent {
+  int vertex;
+  double weight;
+};
+
+/// What one topology change did. Everyone keeping per-vertex or per-tet data updates from it, in
+/// this order: removed tets, removed vertices, added vertices, added tets. Slots in the removed
+/// lists may be reused by the added lists of the same record.
+struct ChangeRecord {
+  std::vector<int> removed_tets;
+  std::vector<int> added_tets;
+  std::vector<int> added_vertices;
+  std::vector<std::vector<VertexParent>> vertex_parents;  ///< parallel to added_vertices
+  std::vector<int> removed_vertices;
+  std::vector<std::pair<int, int>> merged_vertices;  ///< (removed, survivor), also in removed_vertices
+
+  bool empty() const;
+  /// Appends `later`, which happened after this record.
+  void append(const ChangeRecord& later);
+};
+
+/// A tetrahedral mesh with incidence and adjacency kept up to date under every change.
+/// Vertex and tet ids are slots: a removed slot is dead until a later change reuses it, and both
+/// events are announced in that change's record.
+class TetMesh {
+ public:
+  TetMesh() = default;
+  /// V: #V by 3 rest positions [m] (current = rest, velocity 0); T: #T by 4 vertex ids.
+  /// Negatively oriented tets are flipped (see reoriented()). Throws std::invalid_argument for an
+  /// index out of range, a repeated vertex in a tet, a face shared by more than two tets.
+  TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T);
+
+  // --- sizes and liveness
+  int vertexSlots() const { return static_cast<int>(rest_.size()); }
+  int tetSlots() const { return static_cast<int>(tets_.size()); }
+  int numVertices() const { return num_vertices_; }
+  int numTets() const { return num_tets_; }
+  bool vertexAlive(int v) const { return vertex_alive_[v] != 0; }
+  bool tetAlive(int t) const { return tet_alive_[t] != 0; }
+  int reoriented() const { return reoriented_; }
+
+  // --- geometry [m], [m/s]
+  const Vec3& rest(int v) const { return rest_[v]; }
+  const Vec3& current(int v) const { return current_[v]; }
+  const Vec3& velocity(int v) const { return velocity_[v]; }
+  Vec3& current(int v) { return current_[v]; }
+  Vec3& velocity(int v) { return velocity_[v]; }
+  std::vector<Vec3>& currentPositions() { return current_; }
+  std::vector<Vec3>& velocities() { return velocity_; }
+  const std::vector<Vec3>& currentPositions() const { return current_; }
+  const std::vector<Vec3>& restPositions() const { return rest_; }
+
+  // --- topology
+  const TetVerts& tet(int t) const { return tets_[t]; }
+  /// The tet across face f of t (face f is opposite local vertex f), or -1 on the boundary.
+  int neighbor(int t, int f) const { return neighbors_[t][f]; }
+  /// Live tets incident to vertex v.
+  const std::vector<int>& vertexTets(int v) const { return vertex_tets_[v]; }
+  /// Live tets containing both a and b (the star of edge ab), in no particular order.
+  std::vector<int> edgeTets(int a, int b) const;
+  /// The live tet having face {a, b, c} other than `except`, or -1.
+  int faceTet(int a, int b, int c, int except = -1) const;
+  /// Number of boundary faces (faces with no neighbour).
+  int numBoundaryFaces() const { return num_boundary_faces_; }
+  /// Unique edges of live tets as (smaller id, larger id).
+  std::vector<std::pair<int, int>> edges() const;
+  /// Tet 4-tuples of live tets (#T by 4) and the slot of each row; V rows are vertex slots.
+  Eigen::MatrixXi liveTets(std::vector<int>* slots = nullptr) const;
+
+  // --- measures of one tet
+  double restVolume(int t) const;
+  double currentVolume(int t) const;
+  /// Total rest / current volume of live tets [m^3].
+  double restVolume() const;
+  double currentVolume() const;
+
+  // --- changes (each returns what it did)
+  /// Adds a vertex whose rest and current position and velocity are the parents' weighted sums.
+  int addVertex(const std::vector<VertexParent>& parents, ChangeRecord* record);
+  /// Removes the tets `remove`, then adds `add` (vertex ids, positively oriented in rest
+  /// positions); updates incidence and adjacency locally. Returns the new tets' ids in the order
+  /// of `add`. Throws std::logic_error (mesh unchanged) when an added tet repeats a vertex, names a
+  /// dead vertex, or would make a face shared by more than two tets.
+  std::vector<int> replaceTets(const std::vector<int>& remove, const std::vector<TetVerts>& add,
+                               ChangeRecord* record);
+  /// Removes a vertex that no tet uses any more.
+  void removeVertex(int v, ChangeRecord* record);
+  /// Moves every tet of `removed` onto `survivor`; tets holding both vanish; `removed` dies.
+  /// Geometry of the survivor is unchanged.
+  void mergeVertices(int removed, int survivor, ChangeRecord* record);
+
+  /// Checks the invariants: live vertices of every tet, positive rest volume, incidence,
+  /// symmetric adjacency with opposite orientation across each interior face, no face in more than
+  /// two tets, a closed consistently oriented 2-manifold boundary, no isolated vertex. Returns ""
+  /// when valid, else the first violation in words.
+  std::string validate() const;
+
+ private:
+  void linkTet(int t);
+  void unlinkTet(int t);
+  int allocateTet();
+  int allocateVertex();
+
+  std::vector<Vec3> rest_, current_, velocity_;
+  std::vector<unsigned char> vertex_alive_;
+  std::vector<std::vector<int>> vertex_tets_;
+  std::vector<TetVerts> tets_;
+  std::vector<std::array<int, 4>> neighbors_;
+  std::vector<unsigned char> tet_alive_;
+  std::vector<int> free_tets_, free_vertices_;
+  int num_vertices_ = 0, num_tets_ = 0, num_boundary_faces_ = 0, reoriented_ = 0;
+};
+
+/// Signed volume of the tet (a, b, c, d): positive when d sees (a, b, c) counter-clockwise [m^3].
+double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+
+}  // namespace tissue_cut

@@ -1,0 +1,69 @@
+// The model's figures: the paper's counts (#CuT, #CrT, #RmT), times, quality and tick timing.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <vector>
+
+#include "tissue_cut/mesh/quality.hpp"
+
+namespace tissue_cut {
+
+/// Tick durations: percentiles over every recorded tick, or over the most recent ones.
+class TickTimes {
+ public:
+  /// Records one tick that took `ms` [ms] against a deadline of `deadline_ms` [ms].
+  void record(double ms, double deadline_ms);
+  std::int64_t count() const { return count_; }
+  std::int64_t deadlineMisses() const { return misses_; }
+  /// Percentile p in [0, 100] of the ticks kept (all of them, or the last `window`).
+  double percentile(double p) const;
+  double max() const;
+  /// Keep only the last n ticks for percentiles (0 = keep all).
+  void setWindow(std::size_t n) { window_ = n; }
+  void clear();
+
+ private:
+  std::vector<double> ms_;
+  std::size_t window_ = 0, next_ = 0;
+  std::int64_t count_ = 0, misses_ = 0;
+};
+
+struct Statistics {
+  int vertices = 0, tetrahedra = 0, surface_triangles = 0;
+  int initial_vertices = 0, initial_tetrahedra = 0;
+  double initial_volume_rest = 0.0;
+  double volume_rest = 0.0, volume_current = 0.0;
+  QualitySummary quality;  ///< of the rest mesh (the material), as in the paper
+
+  struct {
+    int cut_tetrahedra = 0;      ///< tets replaced by cuts (#CuT)
+    int created_tetrahedra = 0;  ///< tets made by those replacements (#CrT)
+    double time_ms = 0.0;        ///< time spent in replacement (t.Repl)
+  } cut;
+  struct {
+    int collapsed_edges = 0, removed_tetrahedra = 0, pending = 0;  ///< #RmT = removed_tetrahedra
+    int rejected_link = 0, rejected_inversion = 0, rejected_quality = 0, rejected_boundary = 0;
+    double time_ms = 0.0;  ///< t.EC
+  } collapse;
+  struct {
+    int tetrahedra = 0;  ///< tets made by cuts that remain
+    double quality_mean = 0.0, quality_min = 0.0;
+    int below_tau = 0;
+  } region;
+  struct {
+    double mass_total = 0.0, kinetic_energy = 0.0;
+    int instabilities = 0;
+  } physics;
+  struct {
+    std::int64_t count = 0;
+    double rate_hz = 0.0, p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
+    std::int64_t deadline_misses = 0;
+  } ticks;
+
+  /// The JSON layout of cut_replay --stats.
+  nlohmann::json toJson() const;
+};
+
+}  // namespace tissue_cut

@@ -1,0 +1,55 @@
+// The tissue model: owns the mesh, the cutter, the collapse queue and the physics; one step()
+// per tick. The node and cut_replay both drive this class, so both give the same mesh and figures.
+#pragma once
+
+#include <memory>
+#include <optional>
+
+#include "tissue_cut/config.hpp"
+#include "tissue_cut/cut/blade.hpp"
+#include "tissue_cut/mesh/mesh_io.hpp"
+#include "tissue_cut/mesh/tet_mesh.hpp"
+#include "tissue_cut/statistics.hpp"
+
+namespace tissue_cut {
+
+/// The mesh the configuration names: config.mesh read from file (limited to
+/// config.mesh_max_tets), or the built-in block. Throws MeshIOError or std::invalid_argument.
+MeshData loadTissueMesh(const Config& config);
+
+class Tissue {
+ public:
+  /// Builds the model on `mesh` (#V by 3 rest positions [m], #T by 4 tets).
+  /// Throws ConfigError for an invalid config, std::invalid_argument for an unusable mesh.
+  Tissue(const Config& config, const MeshData& mesh);
+  ~Tissue();
+
+  /// One tick of `dt` [s]: cut with the blade (none = the blade is away), remesh, simulate.
+  void step(const std::optional<BladeSegment>& blade, double dt);
+
+  /// Back to the mesh given at construction, uncut and at rest.
+  void reset();
+
+  const TetMesh& mesh() const { return mesh_; }
+  const Config& config() const { return config_; }
+  /// 1 for live tets made by cuts (indexed by tet slot).
+  const std::vector<unsigned char>& cutRegion() const { return cut_region_; }
+  /// Current figures; `ticks` holds what the caller recorded in tickTimes().
+  Statistics statistics() const;
+  TickTimes& tickTimes() { return tick_times_; }
+  /// The live mesh as arrays for writeMesh (current positions, rest, quality, cut_region).
+  MeshWriteData exportMesh() const;
+
+ private:
+  void applyChange(const ChangeRecord& change, bool created_by_cut);
+
+  Config config_;
+  MeshData initial_;
+  TetMesh mesh_;
+  std::vector<unsigned char> cut_region_;
+  Statistics counters_;  // the running counts (cut, collapse, physics)
+  TickTimes tick_times_;
+  double initial_volume_ = 0.0;
+};
+
+}  // namespace tissue_cut

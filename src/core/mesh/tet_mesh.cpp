@@ -1,0 +1,480 @@
+#include "tissue_cut/mesh/tet_mesh.hpp"
+
+#include <algorithm>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace tissue_cut {
+
+namespace {
+
+using FaceKey = std::array<int, 3>;
+
+FaceKey sortedFace(int a, int b, int c) {
+  FaceKey k{a, b, c};
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+bool contains(const TetVerts& t, int v) { return std::find(t.begin(), t.end(), v) != t.end(); }
+
+int localIndex(const TetVerts& t, int v) {
+  for (int i = 0; i < 4; ++i)
+    if (t[i] == v) return i;
+  return -1;
+}
+
+// Local face of tet t made of vertices {a, b, c}: the one opposite the fourth vertex.
+int localFace(const TetVerts& t, int a, int b, int c) {
+  for (int i = 0; i < 4; ++i)
+    if (t[i] != a && t[i] != b && t[i] != c) return i;
+  return -1;
+}
+
+struct FaceKeyHash {
+  std::size_t operator()(const FaceKey& k) const {
+    std::size_t h = static_cast<std::size_t>(k[0]) * 73856093u;
+    h ^= static_cast<std::size_t>(k[1]) * 19349663u;
+    h ^= static_cast<std::size_t>(k[2]) * 83492791u;
+    return h;
+  }
+};
+
+}  // namespace
+
+double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  return (b - a).dot((c - a).cross(d - a)) / 6.0;
+}
+
+bool ChangeRecord::empty() const {
+  return removed_tets.empty() && added_tets.empty() && added_vertices.empty() &&
+         removed_vertices.empty();
+}
+
+void ChangeRecord::append(const ChangeRecord& later) {
+  auto cat = [](auto& into, const auto& from) { into.insert(into.end(), from.begin(), from.end()); };
+  cat(removed_tets, later.removed_tets);
+  cat(added_tets, later.added_tets);
+  cat(added_vertices, later.added_vertices);
+  cat(vertex_parents, later.vertex_parents);
+  cat(removed_vertices, later.removed_vertices);
+  cat(merged_vertices, later.merged_vertices);
+}
+
+TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
+  if (V.cols() != 3) throw std::invalid_argument("TetMesh: V must have 3 columns");
+  if (T.size() > 0 && T.cols() != 4) throw std::invalid_argument("TetMesh: T must have 4 columns");
+  const int nv = static_cast<int>(V.rows());
+  rest_.resize(nv);
+  for (int i = 0; i < nv; ++i) rest_[i] = V.row(i).transpose();
+  current_ = rest_;
+  velocity_.assign(nv, Vec3::Zero());
+  vertex_alive_.assign(nv, 1);
+  vertex_tets_.assign(nv, {});
+  num_vertices_ = nv;
+
+  const int nt = static_cast<int>(T.rows());
+  tets_.resize(nt);
+  neighbors_.assign(nt, {-1, -1, -1, -1});
+  tet_alive_.assign(nt, 1);
+  num_tets_ = nt;
+  for (int t = 0; t < nt; ++t) {
+    TetVerts tv{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
+    for (int i = 0; i < 4; ++i) {
+      if (tv[i] < 0 || tv[i] >= nv) {
+        std::ostringstream msg;
+        msg << "TetMesh: tet " << t << " names vertex " << tv[i] << " of " << nv;
+        throw std::invalid_argument(msg.str());
+      }
+      for (int j = 0; j < i; ++j)
+        if (tv[i] == tv[j])
+          throw std::invalid_argument("TetMesh: tet " + std::to_string(t) + " repeats a vertex");
+    }
+    if (signedVolume(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]) < 0) {
+      std::swap(tv[2], tv[3]);
+      ++reoriented_;
+    }
+    tets_[t] = tv;
+    for (int v : tv) vertex_tets_[v].push_back(t);
+  }
+  // Match faces globally once; later changes match locally.
+  std::unordered_map<FaceKey, std::pair<int, int>, FaceKeyHash> open;
+  open.reserve(static_cast<std::size_t>(nt) * 2);
+  for (int t = 0; t < nt; ++t) {
+    for (int f = 0; f < 4; ++f) {
+      const TetVerts& tv = tets_[t];
+      FaceKey k = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
+      auto it = open.find(k);
+      if (it == open.end()) {
+        open.emplace(k, std::make_pair(t, f));
+        continue;
+      }
+      auto [u, g] = it->second;
+      if (u < 0)
+        throw std::invalid_argument("TetMesh: a face of tet " + std::to_string(t) +
+                                    " is shared by more than two tets");
+      neighbors_[t][f] = u;
+      neighbors_[u][g] = t;
+      it->second = {-1, -1};
+    }
+  }
+  for (const auto& kv : open)
+    if (kv.second.first >= 0) ++num_boundary_faces_;
+}
+
+std::vector<int> TetMesh::edgeTets(int a, int b) const {
+  std::vector<int> out;
+  for (int t : vertex_tets_[a])
+    if (contains(tets_[t], b)) out.push_back(t);
+  return out;
+}
+
+int TetMesh::faceTet(int a, int b, int c, int except) const {
+  for (int t : vertex_tets_[a]) {
+    if (t == except) continue;
+    const TetVerts& tv = tets_[t];
+    if (contains(tv, b) && contains(tv, c)) return t;
+  }
+  return -1;
+}
+
+std::vector<std::pair<int, int>> TetMesh::edges() const {
+  std::vector<std::pair<int, int>> out;
+  out.reserve(static_cast<std::size_t>(num_tets_) * 2);
+  for (int t = 0; t < tetSlots(); ++t) {
+    if (!tet_alive_[t]) continue;
+    for (const auto& e : kTetEdge) {
+      int a = tets_[t][e[0]], b = tets_[t][e[1]];
+      out.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+Eigen::MatrixXi TetMesh::liveTets(std::vector<int>* slots) const {
+  Eigen::MatrixXi T(num_tets_, 4);
+  if (slots) slots->clear();
+  int row = 0;
+  for (int t = 0; t < tetSlots(); ++t) {
+    if (!tet_alive_[t]) continue;
+    for (int i = 0; i < 4; ++i) T(row, i) = tets_[t][i];
+    if (slots) slots->push_back(t);
+    ++row;
+  }
+  return T;
+}
+
+double TetMesh::restVolume(int t) const {
+  const TetVerts& v = tets_[t];
+  return signedVolume(rest_[v[0]], rest_[v[1]], rest_[v[2]], rest_[v[3]]);
+}
+
+double TetMesh::currentVolume(int t) const {
+  const TetVerts& v = tets_[t];
+  return signedVolume(current_[v[0]], current_[v[1]], current_[v[2]], current_[v[3]]);
+}
+
+double TetMesh::restVolume() const {
+  double sum = 0;
+  for (int t = 0; t < tetSlots(); ++t)
+    if (tet_alive_[t]) sum += restVolume(t);
+  return sum;
+}
+
+double TetMesh::currentVolume() const {
+  double sum = 0;
+  for (int t = 0; t < tetSlots(); ++t)
+    if (tet_alive_[t]) sum += currentVolume(t);
+  return sum;
+}
+
+int TetMesh::allocateVertex() {
+  if (!free_vertices_.empty()) {
+    int v = free_vertices_.back();
+    free_vertices_.pop_back();
+    return v;
+  }
+  rest_.emplace_back();
+  current_.emplace_back();
+  velocity_.emplace_back();
+  vertex_alive_.push_back(0);
+  vertex_tets_.emplace_back();
+  return vertexSlots() - 1;
+}
+
+int TetMesh::allocateTet() {
+  if (!free_tets_.empty()) {
+    int t = free_tets_.back();
+    free_tets_.pop_back();
+    return t;
+  }
+  tets_.emplace_back();
+  neighbors_.push_back({-1, -1, -1, -1});
+  tet_alive_.push_back(0);
+  return tetSlots() - 1;
+}
+
+int TetMesh::addVertex(const std::vector<VertexParent>& parents, ChangeRecord* record) {
+  Vec3 r = Vec3::Zero(), c = Vec3::Zero(), u = Vec3::Zero();
+  for (const VertexParent& p : parents) {
+    if (p.vertex < 0 || p.vertex >= vertexSlots() || !vertex_alive_[p.vertex])
+      throw std::logic_error("TetMesh::addVertex: dead parent vertex " + std::to_string(p.vertex));
+    r += p.weight * rest_[p.vertex];
+    c += p.weight * current_[p.vertex];
+    u += p.weight * velocity_[p.vertex];
+  }
+  const int v = allocateVertex();
+  rest_[v] = r;
+  current_[v] = c;
+  velocity_[v] = u;
+  vertex_alive_[v] = 1;
+  vertex_tets_[v].clear();
+  ++num_vertices_;
+  if (record) {
+    record->added_vertices.push_back(v);
+    record->vertex_parents.push_back(parents);
+  }
+  return v;
+}
+
+void TetMesh::removeVertex(int v, ChangeRecord* record) {
+  if (!vertex_alive_[v]) throw std::logic_error("TetMesh::removeVertex: vertex already dead");
+  if (!vertex_tets_[v].empty())
+    throw std::logic_error("TetMesh::removeVertex: vertex " + std::to_string(v) + " still in use");
+  vertex_alive_[v] = 0;
+  free_vertices_.push_back(v);
+  --num_vertices_;
+  if (record) record->removed_vertices.push_back(v);
+}
+
+void TetMesh::linkTet(int t) {
+  const TetVerts& tv = tets_[t];
+  for (int v : tv) vertex_tets_[v].push_back(t);
+  for (int f = 0; f < 4; ++f) {
+    int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]];
+    int u = faceTet(a, b, c, t);
+    if (u < 0) {
+      neighbors_[t][f] = -1;
+      ++num_boundary_faces_;
+    } else {
+      int g = localFace(tets_[u], a, b, c);
+      neighbors_[t][f] = u;
+      neighbors_[u][g] = t;
+      --num_boundary_faces_;
+    }
+  }
+}
+
+void TetMesh::unlinkTet(int t) {
+  for (int f = 0; f < 4; ++f) {
+    int u = neighbors_[t][f];
+    if (u < 0) {
+      --num_boundary_faces_;
+    } else {
+      for (int g = 0; g < 4; ++g)
+        if (neighbors_[u][g] == t) neighbors_[u][g] = -1;
+      ++num_boundary_faces_;
+    }
+    neighbors_[t][f] = -1;
+  }
+  for (int v : tets_[t]) {
+    auto& list = vertex_tets_[v];
+    list.erase(std::find(list.begin(), list.end(), t));
+  }
+}
+
+std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
+                                      const std::vector<TetVerts>& add, ChangeRecord* record) {
+  // Check everything first, so a refused change leaves the mesh as it was.
+  std::set<int> removing(remove.begin(), remove.end());
+  if (removing.size() != remove.size())
+    throw std::logic_error("TetMesh::replaceTets: a tet is removed twice");
+  for (int t : remove)
+    if (t < 0 || t >= tetSlots() || !tet_alive_[t])
+      throw std::logic_error("TetMesh::replaceTets: removing dead tet " + std::to_string(t));
+  std::unordered_map<FaceKey, int, FaceKeyHash> new_faces;
+  for (const TetVerts& tv : add) {
+    for (int i = 0; i < 4; ++i) {
+      if (tv[i] < 0 || tv[i] >= vertexSlots() || !vertex_alive_[tv[i]])
+        throw std::logic_error("TetMesh::replaceTets: dead vertex " + std::to_string(tv[i]));
+      for (int j = 0; j < i; ++j)
+        if (tv[i] == tv[j]) throw std::logic_error("TetMesh::replaceTets: repeated vertex");
+    }
+    for (const auto& f : kTetFace) ++new_faces[sortedFace(tv[f[0]], tv[f[1]], tv[f[2]])];
+  }
+  for (const auto& [key, count] : new_faces) {
+    int kept = 0;
+    for (int t : vertex_tets_[key[0]])
+      if (!removing.count(t) && contains(tets_[t], key[1]) && contains(tets_[t], key[2])) ++kept;
+    if (count + kept > 2)
+      throw std::logic_error("TetMesh::replaceTets: face (" + std::to_string(key[0]) + ", " +
+                             std::to_string(key[1]) + ", " + std::to_string(key[2]) +
+                             ") would be shared by " + std::to_string(count + kept) + " tets");
+  }
+
+  for (int t : remove) {
+    unlinkTet(t);
+    tet_alive_[t] = 0;
+    free_tets_.push_back(t);
+    --num_tets_;
+  }
+  std::vector<int> ids;
+  ids.reserve(add.size());
+  for (const TetVerts& tv : add) {
+    int t = allocateTet();
+    tets_[t] = tv;
+    tet_alive_[t] = 1;
+    ++num_tets_;
+    linkTet(t);
+    ids.push_back(t);
+  }
+  if (record) {
+    record->removed_tets.insert(record->removed_tets.end(), remove.begin(), remove.end());
+    record->added_tets.insert(record->added_tets.end(), ids.begin(), ids.end());
+  }
+  return ids;
+}
+
+void TetMesh::mergeVertices(int removed, int survivor, ChangeRecord* record) {
+  if (removed == survivor || !vertex_alive_[removed] || !vertex_alive_[survivor])
+    throw std::logic_error("TetMesh::mergeVertices: needs two distinct live vertices");
+  std::vector<int> old = vertex_tets_[removed];
+  std::vector<TetVerts> moved;
+  for (int t : old) {
+    TetVerts tv = tets_[t];
+    if (contains(tv, survivor)) continue;
+    tv[localIndex(tv, removed)] = survivor;
+    moved.push_back(tv);
+  }
+  replaceTets(old, moved, record);
+  removeVertex(removed, record);
+  if (record) record->merged_vertices.emplace_back(removed, survivor);
+}
+
+std::string TetMesh::validate() const {
+  std::ostringstream err;
+  auto tetName = [&](int t) {
+    const TetVerts& v = tets_[t];
+    return "tet " + std::to_string(t) + " (" + std::to_string(v[0]) + " " + std::to_string(v[1]) +
+           " " + std::to_string(v[2]) + " " + std::to_string(v[3]) + ")";
+  };
+  int live_tets = 0;
+  for (int t = 0; t < tetSlots(); ++t) {
+    if (!tet_alive_[t]) continue;
+    ++live_tets;
+    const TetVerts& tv = tets_[t];
+    for (int i = 0; i < 4; ++i) {
+      if (tv[i] < 0 || tv[i] >= vertexSlots() || !vertex_alive_[tv[i]])
+        return tetName(t) + " names dead vertex " + std::to_string(tv[i]);
+      for (int j = 0; j < i; ++j)
+        if (tv[i] == tv[j]) return tetName(t) + " repeats a vertex";
+      const auto& inc = vertex_tets_[tv[i]];
+      if (std::find(inc.begin(), inc.end(), t) == inc.end())
+        return tetName(t) + " is missing from the incidence list of vertex " +
+               std::to_string(tv[i]);
+    }
+    const double vol = restVolume(t);
+    if (!(vol > 0)) {
+      err << tetName(t) << " has non-positive rest volume " << vol;
+      return err.str();
+    }
+    for (int f = 0; f < 4; ++f) {
+      const int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]];
+      int sharing = 0;
+      for (int u : vertex_tets_[a])
+        if (u != t && contains(tets_[u], b) && contains(tets_[u], c)) ++sharing;
+      if (sharing > 1)
+        return "face " + std::to_string(f) + " of " + tetName(t) + " is shared by more than two tets";
+      const int u = neighbors_[t][f];
+      if (u < 0) {
+        if (sharing != 0)
+          return "face " + std::to_string(f) + " of " + tetName(t) +
+                 " has a tet beyond it but no neighbour";
+        continue;
+      }
+      if (u >= tetSlots() || !tet_alive_[u])
+        return "face " + std::to_string(f) + " of " + tetName(t) + " points at a dead tet";
+      const TetVerts& uv = tets_[u];
+      if (!contains(uv, a) || !contains(uv, b) || !contains(uv, c))
+        return "neighbour " + tetName(u) + " across face " + std::to_string(f) + " of " +
+               tetName(t) + " does not hold that face";
+      const int g = localFace(uv, a, b, c);
+      if (neighbors_[u][g] != t)
+        return "adjacency of " + tetName(t) + " and " + tetName(u) + " is not symmetric";
+      // Opposite orientation: the face as seen from u must be an odd permutation of (a, b, c).
+      const int* gf = kTetFace[g];
+      std::array<int, 3> seen{uv[gf[0]], uv[gf[1]], uv[gf[2]]};
+      std::array<int, 3> same0{a, b, c}, same1{b, c, a}, same2{c, a, b};
+      if (seen == same0 || seen == same1 || seen == same2)
+        return "face shared by " + tetName(t) + " and " + tetName(u) + " has the same orientation";
+    }
+  }
+  if (live_tets != num_tets_) return "live tet count is out of date";
+  int live_vertices = 0;
+  for (int v = 0; v < vertexSlots(); ++v) {
+    if (!vertex_alive_[v]) {
+      if (!vertex_tets_[v].empty()) return "dead vertex " + std::to_string(v) + " has tets";
+      continue;
+    }
+    ++live_vertices;
+    if (vertex_tets_[v].empty()) return "vertex " + std::to_string(v) + " has no tetrahedron";
+    for (int t : vertex_tets_[v])
+      if (t < 0 || t >= tetSlots() || !tet_alive_[t] || !contains(tets_[t], v))
+        return "incidence list of vertex " + std::to_string(v) + " names tet " +
+               std::to_string(t) + " that does not hold it";
+  }
+  if (live_vertices != num_vertices_) return "live vertex count is out of date";
+
+  // Boundary: each directed edge once and its reverse once (closed, consistently oriented), and
+  // around each boundary vertex a single fan of triangles (a 2-manifold, no pinched vertex).
+  std::map<std::pair<int, int>, int> directed;
+  std::map<int, std::vector<std::pair<int, int>>> fans;  // vertex -> (next, prev) around it
+  int boundary = 0;
+  for (int t = 0; t < tetSlots(); ++t) {
+    if (!tet_alive_[t]) continue;
+    for (int f = 0; f < 4; ++f) {
+      if (neighbors_[t][f] >= 0) continue;
+      ++boundary;
+      const TetVerts& tv = tets_[t];
+      const int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]];
+      ++directed[{a, b}];
+      ++directed[{b, c}];
+      ++directed[{c, a}];
+      fans[a].emplace_back(b, c);
+      fans[b].emplace_back(c, a);
+      fans[c].emplace_back(a, b);
+    }
+  }
+  if (boundary != num_boundary_faces_) return "boundary face count is out of date";
+  for (const auto& [e, n] : directed) {
+    if (n != 1)
+      return "boundary edge (" + std::to_string(e.first) + ", " + std::to_string(e.second) +
+             ") appears in " + std::to_string(n) + " boundary triangles with one orientation";
+    if (!directed.count({e.second, e.first}))
+      return "boundary is open at edge (" + std::to_string(e.first) + ", " +
+             std::to_string(e.second) + ")";
+  }
+  for (const auto& [v, ring] : fans) {
+    // Follow next -> prev links around v: one cycle must cover all its boundary triangles.
+    std::map<int, int> next;
+    for (const auto& [n, p] : ring) next[p] = n;
+    int start = ring.front().second, cur = start, steps = 0;
+    do {
+      auto it = next.find(cur);
+      if (it == next.end()) break;
+      cur = it->second;
+      ++steps;
+    } while (cur != start && steps <= static_cast<int>(ring.size()));
+    if (steps != static_cast<int>(ring.size()))
+      return "boundary is pinched at vertex " + std::to_string(v) + " (" +
+             std::to_string(ring.size()) + " triangles in more than one fan)";
+  }
+  return "";
+}
+
+}  // namespace tissue_cut

@@ -1,0 +1,80 @@
+#include "tissue_cut/statistics.hpp"
+
+#include <algorithm>
+
+namespace tissue_cut {
+
+void TickTimes::record(double ms, double deadline_ms) {
+  ++count_;
+  if (ms > deadline_ms) ++misses_;
+  if (window_ == 0 || ms_.size() < window_) {
+    ms_.push_back(ms);
+  } else {
+    ms_[next_] = ms;
+    next_ = (next_ + 1) % window_;
+  }
+}
+
+double TickTimes::percentile(double p) const {
+  if (ms_.empty()) return 0.0;
+  std::vector<double> sorted = ms_;
+  const std::size_t k = std::min(sorted.size() - 1,
+                                 static_cast<std::size_t>(p / 100.0 * (sorted.size() - 1) + 0.5));
+  std::nth_element(sorted.begin(), sorted.begin() + k, sorted.end());
+  return sorted[k];
+}
+
+double TickTimes::max() const {
+  return ms_.empty() ? 0.0 : *std::max_element(ms_.begin(), ms_.end());
+}
+
+void TickTimes::clear() {
+  ms_.clear();
+  next_ = 0;
+  count_ = misses_ = 0;
+}
+
+nlohmann::json Statistics::toJson() const {
+  using nlohmann::json;
+  json j;
+  j["mesh"] = {{"vertices", vertices},
+               {"tetrahedra", tetrahedra},
+               {"surface_triangles", surface_triangles}};
+  j["initial"] = {{"vertices", initial_vertices},
+                  {"tetrahedra", initial_tetrahedra},
+                  {"volume_rest", initial_volume_rest}};
+  j["volume_rest"] = volume_rest;
+  j["volume_current"] = volume_current;
+  j["quality"] = {{"min", quality.min},
+                  {"mean", quality.mean},
+                  {"histogram", std::vector<int>(quality.histogram.begin(),
+                                                 quality.histogram.end())}};
+  j["cut"] = {{"cut_tetrahedra", cut.cut_tetrahedra},
+              {"created_tetrahedra", cut.created_tetrahedra},
+              {"time_ms", cut.time_ms}};
+  j["collapse"] = {{"collapsed_edges", collapse.collapsed_edges},
+                   {"removed_tetrahedra", collapse.removed_tetrahedra},
+                   {"pending", collapse.pending},
+                   {"rejected",
+                    {{"link", collapse.rejected_link},
+                     {"inversion", collapse.rejected_inversion},
+                     {"quality", collapse.rejected_quality},
+                     {"boundary", collapse.rejected_boundary}}},
+                   {"time_ms", collapse.time_ms}};
+  j["region"] = {{"tetrahedra", region.tetrahedra},
+                 {"quality_mean", region.quality_mean},
+                 {"quality_min", region.quality_min},
+                 {"below_tau", region.below_tau}};
+  j["physics"] = {{"mass_total", physics.mass_total},
+                  {"kinetic_energy", physics.kinetic_energy},
+                  {"instabilities", physics.instabilities}};
+  j["ticks"] = {{"count", ticks.count},
+                {"rate_hz", ticks.rate_hz},
+                {"p50_ms", ticks.p50_ms},
+                {"p99_ms", ticks.p99_ms},
+                {"max_ms", ticks.max_ms},
+                {"deadline_misses", ticks.deadline_misses}};
+  return j;
+}
+
+}  // namespace tissue_cut

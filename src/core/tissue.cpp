@@ -1,0 +1,98 @@
+#include "tissue_cut/tissue.hpp"
+
+#include "tissue_cut/mesh/block.hpp"
+#include "tissue_cut/mesh/quality.hpp"
+
+namespace tissue_cut {
+
+MeshData loadTissueMesh(const Config& config) {
+  if (config.mesh.empty()) {
+    BlockSpec spec;
+    spec.cell_size = config.block_cell_size;
+    return makeBlock(spec);
+  }
+  MeshReadOptions options;
+  options.max_tets = config.mesh_max_tets;
+  return readMesh(config.mesh, options);
+}
+
+Tissue::Tissue(const Config& config, const MeshData& mesh) : config_(config), initial_(mesh) {
+  const std::string bad = config_.check();
+  if (!bad.empty()) throw ConfigError(bad);
+  reset();
+}
+
+Tissue::~Tissue() = default;
+
+void Tissue::reset() {
+  mesh_ = TetMesh(initial_.V, initial_.T);
+  cut_region_.assign(mesh_.tetSlots(), 0);
+  counters_ = Statistics{};
+  tick_times_.clear();
+  initial_volume_ = mesh_.restVolume();
+}
+
+void Tissue::applyChange(const ChangeRecord& change, bool created_by_cut) {
+  for (int t : change.removed_tets) cut_region_[t] = 0;
+  if (static_cast<int>(cut_region_.size()) < mesh_.tetSlots()) cut_region_.resize(mesh_.tetSlots());
+  for (int t : change.added_tets) cut_region_[t] = created_by_cut ? 1 : cut_region_[t];
+}
+
+void Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
+  (void)blade;
+  (void)dt;
+}
+
+Statistics Tissue::statistics() const {
+  Statistics s = counters_;
+  s.vertices = mesh_.numVertices();
+  s.tetrahedra = mesh_.numTets();
+  s.surface_triangles = mesh_.numBoundaryFaces();
+  s.initial_vertices = static_cast<int>(initial_.V.rows());
+  s.initial_tetrahedra = static_cast<int>(initial_.T.rows());
+  s.initial_volume_rest = initial_volume_;
+  s.volume_rest = mesh_.restVolume();
+  s.volume_current = mesh_.currentVolume();
+  s.quality = summarizeQuality(mesh_, config_.collapse.tau);
+  const QualitySummary region = summarizeQuality(mesh_, config_.collapse.tau, &cut_region_);
+  s.region.tetrahedra = region.count;
+  s.region.quality_mean = region.mean;
+  s.region.quality_min = region.min;
+  s.region.below_tau = region.below_tau;
+  s.ticks.count = tick_times_.count();
+  s.ticks.p50_ms = tick_times_.percentile(50);
+  s.ticks.p99_ms = tick_times_.percentile(99);
+  s.ticks.max_ms = tick_times_.max();
+  s.ticks.deadline_misses = tick_times_.deadlineMisses();
+  return s;
+}
+
+MeshWriteData Tissue::exportMesh() const {
+  MeshWriteData out;
+  std::vector<int> slots;
+  Eigen::MatrixXi T = mesh_.liveTets(&slots);
+  // Compact vertex ids: files have no dead slots.
+  std::vector<int> remap(mesh_.vertexSlots(), -1);
+  int nv = 0;
+  for (int v = 0; v < mesh_.vertexSlots(); ++v)
+    if (mesh_.vertexAlive(v)) remap[v] = nv++;
+  out.V.resize(nv, 3);
+  out.rest.resize(nv, 3);
+  for (int v = 0; v < mesh_.vertexSlots(); ++v) {
+    if (remap[v] < 0) continue;
+    out.V.row(remap[v]) = mesh_.current(v).transpose();
+    out.rest.row(remap[v]) = mesh_.rest(v).transpose();
+  }
+  for (int i = 0; i < T.rows(); ++i)
+    for (int k = 0; k < 4; ++k) T(i, k) = remap[T(i, k)];
+  out.T = T;
+  out.quality.resize(T.rows());
+  out.cut_region.resize(T.rows());
+  for (int i = 0; i < T.rows(); ++i) {
+    out.quality[i] = restQuality(mesh_, slots[i]);
+    out.cut_region[i] = cut_region_[slots[i]];
+  }
+  return out;
+}
+
+}  // namespace tissue_cut

@@ -1,0 +1,226 @@
+// cut_replay: replays a scalpel path over a tissue mesh offline, through the same Tissue::step as
+// the node, and reports the mesh and its statistics.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tissue_cut/config.hpp"
+#include "tissue_cut/cut/scalpel_path.hpp"
+#include "tissue_cut/mesh/mesh_io.hpp"
+#include "tissue_cut/tissue.hpp"
+
+namespace {
+
+constexpr int kExitUsage = 1;
+constexpr int kExitInput = 2;
+constexpr int kExitInvalid = 3;
+
+const char* kUsage = R"(usage: cut_replay [options]
+Replays a scalpel path over a tissue mesh, offline, with the node's own Tissue::step.
+  --mesh FILE          mesh (.msh .node .ele .vtk .stl); default: the built-in block
+  --config FILE.yaml   configuration keys (see config/tissue.yaml); flags override it
+  --path FILE.csv      scalpel path, header t,x,y,z,qx,qy,qz,qw (mesh frame, seconds)
+  --blade-length L     blade length [m] (cut/blade_length)
+  --rate HZ            ticks per second (rate), default 1000
+  --settle SECONDS     keep simulating this long after the path ends (blade stays put)
+  --no-physics         physics/enabled = false
+  --no-collapse        collapse/enabled = false
+  --tau T              collapse/tau
+  --check              run TetMesh::validate() after every tick; stop at the first violation
+  --out FILE           write the final mesh (.vtk .node .msh)
+  --stats FILE.json    write the statistics as JSON
+  --quiet              print nothing but errors
+exit status: 0 done, 1 bad usage, 2 unusable input (mesh, config, path, output), 3 --check failed
+)";
+
+struct Options {
+  std::string mesh, config, path, out, stats;
+  std::optional<double> blade_length, rate, tau;
+  double settle = 0.0;
+  bool no_physics = false, no_collapse = false, check = false, quiet = false;
+  bool mesh_given = false;
+};
+
+bool parseNumber(const std::string& text, double* value) {
+  char* end = nullptr;
+  *value = std::strtod(text.c_str(), &end);
+  return !text.empty() && end == text.c_str() + text.size() && std::isfinite(*value);
+}
+
+// Returns an error message, or "" when the arguments parse.
+std::string parseArgs(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](std::string* into) -> std::string {
+      if (i + 1 >= argc) return a + " needs a value";
+      *into = argv[++i];
+      return "";
+    };
+    auto number = [&](std::optional<double>* into) -> std::string {
+      std::string text;
+      std::string err = value(&text);
+      if (!err.empty()) return err;
+      double x;
+      if (!parseNumber(text, &x)) return a + ": '" + text + "' is not a finite number";
+      *into = x;
+      return "";
+    };
+    std::string err;
+    if (a == "--mesh") {
+      err = value(&o->mesh);
+      o->mesh_given = true;
+    } else if (a == "--config") {
+      err = value(&o->config);
+    } else if (a == "--path") {
+      err = value(&o->path);
+    } else if (a == "--out") {
+      err = value(&o->out);
+    } else if (a == "--stats") {
+      err = value(&o->stats);
+    } else if (a == "--blade-length") {
+      err = number(&o->blade_length);
+    } else if (a == "--rate") {
+      err = number(&o->rate);
+    } else if (a == "--tau") {
+      err = number(&o->tau);
+    } else if (a == "--settle") {
+      std::optional<double> s;
+      err = number(&s);
+      if (err.empty() && *s < 0) err = "--settle must not be negative";
+      if (err.empty()) o->settle = *s;
+    } else if (a == "--no-physics") {
+      o->no_physics = true;
+    } else if (a == "--no-collapse") {
+      o->no_collapse = true;
+    } else if (a == "--check") {
+      o->check = true;
+    } else if (a == "--quiet") {
+      o->quiet = true;
+    } else if (a == "--help" || a == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else {
+      err = "unknown option '" + a + "'";
+    }
+    if (!err.empty()) return err;
+  }
+  return "";
+}
+
+void printSummary(const tissue_cut::Statistics& s) {
+  std::printf("mesh        %d vertices, %d tetrahedra, %d surface triangles\n", s.vertices,
+              s.tetrahedra, s.surface_triangles);
+  std::printf("initial     %d vertices, %d tetrahedra, rest volume %.9g m^3\n", s.initial_vertices,
+              s.initial_tetrahedra, s.initial_volume_rest);
+  std::printf("volume      rest %.9g m^3, current %.9g m^3\n", s.volume_rest, s.volume_current);
+  std::printf("quality     min %.6f, mean %.6f (rest mesh, Q = 3 r_in / R_circ)\n", s.quality.min,
+              s.quality.mean);
+  std::printf("cut         %d cut tets, %d created tets, %.3f ms\n", s.cut.cut_tetrahedra,
+              s.cut.created_tetrahedra, s.cut.time_ms);
+  std::printf("collapse    %d edges, %d tets removed, %d pending, %.3f ms\n",
+              s.collapse.collapsed_edges, s.collapse.removed_tetrahedra, s.collapse.pending,
+              s.collapse.time_ms);
+  std::printf("region      %d tets, quality mean %.4f, min %.4f, %d below tau\n",
+              s.region.tetrahedra, s.region.quality_mean, s.region.quality_min,
+              s.region.below_tau);
+  std::printf("physics     mass %.6g kg, kinetic energy %.3g J, %d instabilities\n",
+              s.physics.mass_total, s.physics.kinetic_energy, s.physics.instabilities);
+  std::printf("ticks       %lld at %.0f Hz: p50 %.4f ms, p99 %.4f ms, max %.4f ms, %lld misses\n",
+              static_cast<long long>(s.ticks.count), s.ticks.rate_hz, s.ticks.p50_ms,
+              s.ticks.p99_ms, s.ticks.max_ms, static_cast<long long>(s.ticks.deadline_misses));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace tissue_cut;
+  Options opt;
+  const std::string usage_error = parseArgs(argc, argv, &opt);
+  if (!usage_error.empty()) {
+    std::cerr << "cut_replay: " << usage_error << "\n" << kUsage;
+    return kExitUsage;
+  }
+
+  Config config;
+  std::optional<ScalpelPath> path;
+  std::optional<Tissue> tissue;
+  try {
+    if (!opt.config.empty()) config = loadConfigFile(opt.config, config);
+    if (opt.mesh_given) config.mesh = opt.mesh;
+    if (opt.blade_length) config.cut.blade_length = *opt.blade_length;
+    if (opt.rate) config.rate = *opt.rate;
+    if (opt.tau) config.collapse.tau = *opt.tau;
+    if (opt.no_physics) config.physics.enabled = false;
+    if (opt.no_collapse) config.collapse.enabled = false;
+    const std::string bad = config.check();
+    if (!bad.empty()) throw ConfigError(bad);
+    if (!opt.path.empty()) path = ScalpelPath::read(opt.path);
+    tissue.emplace(config, loadTissueMesh(config));
+  } catch (const std::exception& e) {
+    std::cerr << "cut_replay: " << e.what() << "\n";
+    return kExitInput;
+  }
+  if (opt.check) {
+    const std::string err = tissue->mesh().validate();
+    if (!err.empty()) {
+      std::cerr << "cut_replay: the mesh as loaded is invalid: " << err << "\n";
+      return kExitInvalid;
+    }
+  }
+
+  // Ticks at `rate` over the path, then `settle` seconds more with the blade where it ended.
+  const double dt = 1.0 / config.rate;
+  const double t0 = path ? path->startTime() : 0.0;
+  const double t_path = path ? path->endTime() : 0.0;
+  const auto ticks = static_cast<long long>(std::ceil((t_path - t0 + opt.settle) / dt - 1e-9));
+  const double deadline_ms = 1000.0 * dt;
+  const auto wall_start = std::chrono::steady_clock::now();
+  for (long long k = 1; k <= ticks; ++k) {
+    std::optional<BladeSegment> blade;
+    if (path) {
+      const ToolPose pose = path->at(std::min(t0 + k * dt, t_path));
+      blade = bladeFromPose(pose.position, pose.orientation, config.cut.blade_length);
+    }
+    const auto start = std::chrono::steady_clock::now();
+    tissue->step(blade, dt);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    tissue->tickTimes().record(ms, deadline_ms);
+    if (opt.check) {
+      const std::string err = tissue->mesh().validate();
+      if (!err.empty()) {
+        std::cerr << "cut_replay: tick " << k << " (t = " << t0 + k * dt
+                  << " s): invalid mesh: " << err << "\n";
+        return kExitInvalid;
+      }
+    }
+  }
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+
+  Statistics stats = tissue->statistics();
+  stats.ticks.rate_hz = config.rate;
+  try {
+    if (!opt.out.empty()) writeMesh(opt.out, tissue->exportMesh());
+    if (!opt.stats.empty()) {
+      std::ofstream f(opt.stats);
+      if (!f) throw std::runtime_error(opt.stats + ": cannot write the statistics file");
+      f << stats.toJson().dump(2) << "\n";
+      if (!f) throw std::runtime_error(opt.stats + ": writing the statistics failed");
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "cut_replay: " << e.what() << "\n";
+    return kExitInput;
+  }
+  if (!opt.quiet) {
+    printSummary(stats);
+    std::printf("replay      %lld ticks (%.3f simulated s) in %.3f s wall: real-time factor %.2f\n",
+                ticks, ticks * dt, wall_s, wall_s > 0 ? ticks * dt / wall_s : 0.0);
+  }
+  return 0;
+}

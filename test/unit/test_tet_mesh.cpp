@@ -1,0 +1,161 @@
+// TetMesh: incidence, adjacency, boundary and validate() under the changes cuts and collapses use.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "tissue_cut/mesh/block.hpp"
+#include "tissue_cut/mesh/tet_mesh.hpp"
+
+using namespace tissue_cut;
+
+namespace {
+
+// Two tets glued on face (1, 2, 3).
+TetMesh twoTets() {
+  Eigen::MatrixXd V(5, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1;
+  Eigen::MatrixXi T(2, 4);
+  T << 0, 1, 2, 3, 4, 1, 3, 2;
+  return TetMesh(V, T);
+}
+
+// Splits every tet around edge ab at its midpoint; returns the new vertex.
+int bisectEdge(TetMesh& mesh, int a, int b, ChangeRecord* record) {
+  const int m = mesh.addVertex({{a, 0.5}, {b, 0.5}}, record);
+  std::vector<int> star = mesh.edgeTets(a, b);
+  std::vector<TetVerts> add;
+  for (int t : star) {
+    for (int end : {a, b}) {
+      TetVerts tv = mesh.tet(t);
+      *std::find(tv.begin(), tv.end(), end) = m;
+      add.push_back(tv);
+    }
+  }
+  mesh.replaceTets(star, add, record);
+  return m;
+}
+
+}  // namespace
+
+TEST(TetMesh, AdjacencyAndBoundaryOfTwoGluedTets) {
+  TetMesh mesh = twoTets();
+  EXPECT_EQ(mesh.numTets(), 2);
+  EXPECT_EQ(mesh.numBoundaryFaces(), 6);
+  EXPECT_EQ(mesh.neighbor(0, 0), 1);  // face opposite vertex 0 is (1, 2, 3)
+  EXPECT_EQ(mesh.neighbor(1, 0), 0);
+  EXPECT_EQ(mesh.neighbor(0, 1), -1);
+  EXPECT_EQ(mesh.edges().size(), 9u);
+  EXPECT_EQ(mesh.validate(), "");
+}
+
+TEST(TetMesh, FlipsNegativelyOrientedTetsAndCountsThem) {
+  Eigen::MatrixXd V(4, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  Eigen::MatrixXi T(1, 4);
+  T << 0, 1, 3, 2;
+  TetMesh mesh(V, T);
+  EXPECT_EQ(mesh.reoriented(), 1);
+  EXPECT_GT(mesh.restVolume(0), 0);
+  EXPECT_EQ(mesh.validate(), "");
+}
+
+TEST(TetMesh, RefusesOutOfRangeIndexAndRepeatedVertex) {
+  Eigen::MatrixXd V(4, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  Eigen::MatrixXi T(1, 4);
+  T << 0, 1, 2, 4;
+  EXPECT_THROW(TetMesh(V, T), std::invalid_argument);
+  T << 0, 1, 2, 2;
+  EXPECT_THROW(TetMesh(V, T), std::invalid_argument);
+}
+
+TEST(TetMesh, EdgeBisectionKeepsVolumeAndValidity) {
+  const MeshData b = makeBlock();
+  TetMesh mesh(b.V, b.T);
+  const double volume = mesh.restVolume();
+  auto edges = mesh.edges();
+  const auto [a, c] = edges[edges.size() / 2];
+  const int star = static_cast<int>(mesh.edgeTets(a, c).size());
+  ChangeRecord record;
+  const int m = bisectEdge(mesh, a, c, &record);
+  EXPECT_EQ(mesh.validate(), "");
+  EXPECT_NEAR(mesh.restVolume(), volume, 1e-15);
+  EXPECT_EQ(static_cast<int>(record.removed_tets.size()), star);
+  EXPECT_EQ(static_cast<int>(record.added_tets.size()), 2 * star);
+  ASSERT_EQ(record.added_vertices.size(), 1u);
+  EXPECT_EQ(record.added_vertices[0], m);
+  EXPECT_TRUE(mesh.current(m).isApprox(0.5 * (mesh.current(a) + mesh.current(c))));
+}
+
+TEST(TetMesh, MergingTheBisectionPointBackRestoresTheMesh) {
+  const MeshData b = makeBlock();
+  TetMesh mesh(b.V, b.T);
+  auto edges = mesh.edges();
+  const auto [a, c] = edges[edges.size() / 3];
+  const int m = bisectEdge(mesh, a, c, nullptr);
+  ChangeRecord record;
+  mesh.mergeVertices(m, a, &record);
+  EXPECT_EQ(mesh.validate(), "");
+  EXPECT_EQ(mesh.numTets(), b.T.rows());
+  EXPECT_EQ(mesh.numVertices(), b.V.rows());
+  ASSERT_EQ(record.merged_vertices.size(), 1u);
+  EXPECT_EQ(record.merged_vertices[0], std::make_pair(m, a));
+  EXPECT_FALSE(mesh.vertexAlive(m));
+}
+
+TEST(TetMesh, RemovedSlotsAreReusedAndAnnounced) {
+  TetMesh mesh = twoTets();
+  ChangeRecord record;
+  const TetVerts t1 = mesh.tet(1);
+  auto ids = mesh.replaceTets({1}, {t1}, &record);
+  ASSERT_EQ(ids.size(), 1u);
+  EXPECT_EQ(ids[0], 1);
+  EXPECT_EQ(record.removed_tets, std::vector<int>{1});
+  EXPECT_EQ(record.added_tets, std::vector<int>{1});
+  EXPECT_EQ(mesh.tetSlots(), 2);
+  EXPECT_EQ(mesh.validate(), "");
+}
+
+TEST(TetMesh, RefusedReplacementLeavesTheMeshUnchanged) {
+  TetMesh mesh = twoTets();
+  // A third tet on face (1, 2, 3) would make it shared by three tets.
+  const int v = mesh.addVertex({{4, 1.0}}, nullptr);
+  EXPECT_THROW(mesh.replaceTets({}, {{v, 1, 2, 3}}, nullptr), std::logic_error);
+  EXPECT_EQ(mesh.numTets(), 2);
+  EXPECT_EQ(mesh.neighbor(0, 0), 1);
+  mesh.removeVertex(v, nullptr);
+  EXPECT_EQ(mesh.validate(), "");
+}
+
+TEST(TetMesh, ValidateNamesAZeroVolumeTet) {
+  Eigen::MatrixXd V(4, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0;
+  Eigen::MatrixXi T(1, 4);
+  T << 0, 1, 2, 3;
+  TetMesh mesh(V, T);
+  EXPECT_NE(mesh.validate().find("non-positive rest volume"), std::string::npos);
+}
+
+TEST(TetMesh, ValidateNamesTetsSharingOnlyAnEdge) {
+  Eigen::MatrixXd V(6, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, -1, 0.5, -1, -1;
+  Eigen::MatrixXi T(2, 4);
+  T << 0, 1, 2, 3, 0, 1, 4, 5;
+  TetMesh mesh(V, T);
+  EXPECT_NE(mesh.validate().find("boundary edge (0, 1)"), std::string::npos) << mesh.validate();
+}
+
+TEST(TetMesh, ValidateNamesAPinchedVertex) {
+  Eigen::MatrixXd V(7, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, -1, 0, 0, 0, -1, 0, 0, 0, -1;
+  Eigen::MatrixXi T(2, 4);
+  T << 0, 1, 2, 3, 0, 4, 6, 5;
+  TetMesh mesh(V, T);
+  EXPECT_NE(mesh.validate().find("pinched at vertex 0"), std::string::npos) << mesh.validate();
+}
+
+TEST(TetMesh, ValidateNamesAnIsolatedVertex) {
+  TetMesh mesh = twoTets();
+  mesh.addVertex({{0, 1.0}}, nullptr);
+  EXPECT_NE(mesh.validate().find("has no tetrahedron"), std::string::npos);
+}
