@@ -31,6 +31,9 @@ struct VertexParent {
 struct ChangeRecord {
   std::vector<int> removed_tets;
   std::vector<int> added_tets;
+  /// Parallel to added_tets: the removed tet an added one continues (the same material element
+  /// with a vertex renamed or moved), or -1 for a new element made by a cut.
+  std::vector<int> added_from;
   std::vector<int> added_vertices;
   std::vector<std::vector<VertexParent>> vertex_parents;  ///< parallel to added_vertices
   std::vector<int> removed_vertices;
@@ -100,11 +103,13 @@ class TetMesh {
   /// Adds a vertex whose rest and current position and velocity are the parents' weighted sums.
   int addVertex(const std::vector<VertexParent>& parents, ChangeRecord* record);
   /// Removes the tets `remove`, then adds `add` (vertex ids, positively oriented in rest
-  /// positions); updates incidence and adjacency locally. Returns the new tets' ids in the order
-  /// of `add`. Throws std::logic_error (mesh unchanged) when an added tet repeats a vertex, names a
-  /// dead vertex, or would make a face shared by more than two tets.
+  /// positions); updates incidence and adjacency locally. `from` (optional, parallel to `add`)
+  /// names the removed tet each added one continues, -1 for new ones (see ChangeRecord).
+  /// Returns the new tets' ids in the order of `add`. Throws std::logic_error (mesh unchanged)
+  /// when an added tet repeats a vertex, names a dead vertex, or would make a face shared by more
+  /// than two tets.
   std::vector<int> replaceTets(const std::vector<int>& remove, const std::vector<TetVerts>& add,
-                               ChangeRecord* record);
+                               ChangeRecord* record, const std::vector<int>* from = nullptr);
   /// Removes a vertex that no tet uses any more.
   void removeVertex(int v, ChangeRecord* record);
   /// Moves every tet of `removed` onto `survivor`; tets holding both vanish; `removed` dies.

@@ -58,6 +58,7 @@ void ChangeRecord::append(const ChangeRecord& later) {
   auto cat = [](auto& into, const auto& from) { into.insert(into.end(), from.begin(), from.end()); };
   cat(removed_tets, later.removed_tets);
   cat(added_tets, later.added_tets);
+  cat(added_from, later.added_from);
   cat(added_vertices, later.added_vertices);
   cat(vertex_parents, later.vertex_parents);
   cat(removed_vertices, later.removed_vertices);
@@ -289,7 +290,10 @@ void TetMesh::unlinkTet(int t) {
 }
 
 std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
-                                      const std::vector<TetVerts>& add, ChangeRecord* record) {
+                                      const std::vector<TetVerts>& add, ChangeRecord* record,
+                                      const std::vector<int>* from) {
+  if (from && from->size() != add.size())
+    throw std::logic_error("TetMesh::replaceTets: `from` must be parallel to `add`");
   // Check everything first, so a refused change leaves the mesh as it was.
   std::set<int> removing(remove.begin(), remove.end());
   if (removing.size() != remove.size())
@@ -336,6 +340,7 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
   if (record) {
     record->removed_tets.insert(record->removed_tets.end(), remove.begin(), remove.end());
     record->added_tets.insert(record->added_tets.end(), ids.begin(), ids.end());
+    for (std::size_t i = 0; i < ids.size(); ++i) record->added_from.push_back(from ? (*from)[i] : -1);
   }
   return ids;
 }
@@ -345,13 +350,15 @@ void TetMesh::mergeVertices(int removed, int survivor, ChangeRecord* record) {
     throw std::logic_error("TetMesh::mergeVertices: needs two distinct live vertices");
   std::vector<int> old = vertex_tets_[removed];
   std::vector<TetVerts> moved;
+  std::vector<int> from;
   for (int t : old) {
     TetVerts tv = tets_[t];
     if (contains(tv, survivor)) continue;
     tv[localIndex(tv, removed)] = survivor;
     moved.push_back(tv);
+    from.push_back(t);
   }
-  replaceTets(old, moved, record);
+  replaceTets(old, moved, record, &from);
   removeVertex(removed, record);
   if (record) record->merged_vertices.emplace_back(removed, survivor);
 }
