@@ -7,6 +7,7 @@
 
 #include "tissue_cut/config.hpp"
 #include "tissue_cut/cut/blade.hpp"
+#include "tissue_cut/cut/cutter.hpp"
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/statistics.hpp"
@@ -23,9 +24,16 @@ class Tissue {
   /// Throws ConfigError for an invalid config, std::invalid_argument for an unusable mesh.
   Tissue(const Config& config, const MeshData& mesh);
   ~Tissue();
+  Tissue(const Tissue&) = delete;
+  Tissue& operator=(const Tissue&) = delete;
 
   /// One tick of `dt` [s]: cut with the blade (none = the blade is away), remesh, simulate.
-  void step(const std::optional<BladeSegment>& blade, double dt);
+  /// Returns a warning for the caller to log (the blade was lifted), or "".
+  std::string step(const std::optional<BladeSegment>& blade, double dt);
+
+  /// TetMesh::validate() plus the cutter's pending state; "" when valid.
+  std::string validate() const;
+  const Cutter& cutter() const { return *cutter_; }
 
   /// Back to the mesh given at construction, uncut and at rest.
   void reset();
@@ -41,11 +49,12 @@ class Tissue {
   MeshWriteData exportMesh() const;
 
  private:
-  void applyChange(const ChangeRecord& change, bool created_by_cut);
+  void applyChange(const ChangeRecord& change);
 
   Config config_;
   MeshData initial_;
   TetMesh mesh_;
+  std::unique_ptr<Cutter> cutter_;
   std::vector<unsigned char> cut_region_;
   Statistics counters_;  // the running counts (cut, collapse, physics)
   TickTimes tick_times_;

@@ -3,6 +3,8 @@
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/quality.hpp"
 
+#include <unordered_map>
+
 namespace tissue_cut {
 
 MeshData loadTissueMesh(const Config& config) {
@@ -26,25 +28,49 @@ Tissue::~Tissue() = default;
 
 void Tissue::reset() {
   mesh_ = TetMesh(initial_.V, initial_.T);
+  CutterOptions cut;
+  cut.max_jump = config_.cut.max_jump;
+  cutter_ = std::make_unique<Cutter>(&mesh_, cut);
   cut_region_.assign(mesh_.tetSlots(), 0);
   counters_ = Statistics{};
   tick_times_.clear();
   initial_volume_ = mesh_.restVolume();
 }
 
-void Tissue::applyChange(const ChangeRecord& change, bool created_by_cut) {
-  for (int t : change.removed_tets) cut_region_[t] = 0;
-  if (static_cast<int>(cut_region_.size()) < mesh_.tetSlots()) cut_region_.resize(mesh_.tetSlots());
-  for (int t : change.added_tets) cut_region_[t] = created_by_cut ? 1 : cut_region_[t];
+void Tissue::applyChange(const ChangeRecord& change) {
+  // A renamed tet keeps its flag; a tet a cut made gets 1. Slots may be reused within a record,
+  // so read the removed flags first.
+  std::unordered_map<int, unsigned char> removed;
+  for (int t : change.removed_tets) {
+    removed[t] = cut_region_[t];
+    cut_region_[t] = 0;
+  }
+  if (static_cast<int>(cut_region_.size()) < mesh_.tetSlots()) cut_region_.resize(mesh_.tetSlots(), 0);
+  for (std::size_t i = 0; i < change.added_tets.size(); ++i) {
+    const int from = change.added_from[i];
+    cut_region_[change.added_tets[i]] = from >= 0 ? removed[from] : 1;
+  }
 }
 
-void Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
-  (void)blade;
+std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   (void)dt;
+  ChangeRecord change;
+  std::string warning = cutter_->step(blade, &change);
+  applyChange(change);
+  return warning;
+}
+
+std::string Tissue::validate() const {
+  std::string err = mesh_.validate();
+  if (err.empty()) err = cutter_->validate();
+  return err;
 }
 
 Statistics Tissue::statistics() const {
   Statistics s = counters_;
+  s.cut.cut_tetrahedra = cutter_->counts().cut_tetrahedra;
+  s.cut.created_tetrahedra = cutter_->counts().created_tetrahedra;
+  s.cut.time_ms = cutter_->counts().time_ms;
   s.vertices = mesh_.numVertices();
   s.tetrahedra = mesh_.numTets();
   s.surface_triangles = mesh_.numBoundaryFaces();

@@ -166,7 +166,7 @@ int main(int argc, char** argv) {
     return kExitInput;
   }
   if (opt.check) {
-    const std::string err = tissue->mesh().validate();
+    const std::string err = tissue->validate();
     if (!err.empty()) {
       std::cerr << "cut_replay: the mesh as loaded is invalid: " << err << "\n";
       return kExitInvalid;
@@ -187,12 +187,13 @@ int main(int argc, char** argv) {
       blade = bladeFromPose(pose.position, pose.orientation, config.cut.blade_length);
     }
     const auto start = std::chrono::steady_clock::now();
-    tissue->step(blade, dt);
+    const std::string warning = tissue->step(blade, dt);
+    if (!warning.empty() && !opt.quiet) std::cerr << "cut_replay: tick " << k << ": " << warning << "\n";
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     tissue->tickTimes().record(ms, deadline_ms);
     if (opt.check) {
-      const std::string err = tissue->mesh().validate();
+      const std::string err = tissue->validate();
       if (!err.empty()) {
         std::cerr << "cut_replay: tick " << k << " (t = " << t0 + k * dt
                   << " s): invalid mesh: " << err << "\n";
@@ -219,6 +220,11 @@ int main(int argc, char** argv) {
   }
   if (!opt.quiet) {
     printSummary(stats);
+    const auto& kinds = tissue->cutter().counts().by_kind;
+    std::printf("splits      ");
+    for (int k = 0; k < static_cast<int>(kinds.size()); ++k)
+      if (kinds[k]) std::printf("%s %d  ", splitKindName(static_cast<SplitKind>(k)), kinds[k]);
+    std::printf("\n");
     std::printf("replay      %lld ticks (%.3f simulated s) in %.3f s wall: real-time factor %.2f\n",
                 ticks, ticks * dt, wall_s, wall_s > 0 ? ticks * dt / wall_s : 0.0);
   }

@@ -40,7 +40,8 @@ struct ChangeRecord {
   std::vector<std::pair<int, int>> merged_vertices;  ///< (removed, survivor), also in removed_vertices
 
   bool empty() const;
-  /// Appends `later`, which happened after this record.
+  /// Composes `later`, which happened after this record, into one net change: what was added
+  /// and removed again within the two vanishes from both lists.
   void append(const ChangeRecord& later);
 };
 

@@ -55,14 +55,55 @@ bool ChangeRecord::empty() const {
 }
 
 void ChangeRecord::append(const ChangeRecord& later) {
-  auto cat = [](auto& into, const auto& from) { into.insert(into.end(), from.begin(), from.end()); };
-  cat(removed_tets, later.removed_tets);
-  cat(added_tets, later.added_tets);
-  cat(added_from, later.added_from);
-  cat(added_vertices, later.added_vertices);
-  cat(vertex_parents, later.vertex_parents);
-  cat(removed_vertices, later.removed_vertices);
-  cat(merged_vertices, later.merged_vertices);
+  // Compose into one net change: a tet or vertex added here and removed later never existed for
+  // the consumers, and a tet continuing one of those continues what that one continued.
+  std::unordered_map<int, std::size_t> added_at;
+  for (std::size_t i = 0; i < added_tets.size(); ++i) added_at[added_tets[i]] = i;
+  std::unordered_map<int, int> origin;  // later's removed slot -> what it continued
+  std::vector<char> cancelled(added_tets.size(), 0);
+  for (int t : later.removed_tets) {
+    auto it = added_at.find(t);
+    if (it != added_at.end() && !cancelled[it->second]) {
+      cancelled[it->second] = 1;
+      origin[t] = added_from[it->second];
+      added_at.erase(it);
+    } else {
+      removed_tets.push_back(t);
+      origin[t] = t;
+    }
+  }
+  std::vector<int> kept_tets, kept_from;
+  for (std::size_t i = 0; i < added_tets.size(); ++i)
+    if (!cancelled[i]) {
+      kept_tets.push_back(added_tets[i]);
+      kept_from.push_back(added_from[i]);
+    }
+  added_tets.swap(kept_tets);
+  added_from.swap(kept_from);
+  for (std::size_t i = 0; i < later.added_tets.size(); ++i) {
+    int from = later.added_from[i];
+    if (from >= 0) {
+      auto it = origin.find(from);
+      if (it != origin.end()) from = it->second;
+    }
+    added_tets.push_back(later.added_tets[i]);
+    added_from.push_back(from);
+  }
+  for (int v : later.removed_vertices) {
+    auto it = std::find(added_vertices.begin(), added_vertices.end(), v);
+    if (it != added_vertices.end()) {
+      vertex_parents.erase(vertex_parents.begin() + (it - added_vertices.begin()));
+      added_vertices.erase(it);
+    } else {
+      removed_vertices.push_back(v);
+    }
+  }
+  added_vertices.insert(added_vertices.end(), later.added_vertices.begin(),
+                        later.added_vertices.end());
+  vertex_parents.insert(vertex_parents.end(), later.vertex_parents.begin(),
+                        later.vertex_parents.end());
+  merged_vertices.insert(merged_vertices.end(), later.merged_vertices.begin(),
+                         later.merged_vertices.end());
 }
 
 TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {

@@ -1,0 +1,116 @@
+// Cutter: progressive cutting by tetrahedra replacement (Ganovelli et al. 2000, 2001).
+//
+// Each tick the blade sweeps a quad. Mesh edges it crosses get a cut point, faces its front
+// (the tip's path, the base's path, and the blade where a stroke starts or ends) crosses get a
+// front point; a point belongs to its edge or face and is shared by every tet around it. A tet
+// holding points is *pending* while the blade is inside it: it is kept as a temporary conforming
+// subdivision (no separation) so that the mesh stays a valid complex every tick. On the tick the
+// blade leaves it, it is replaced by SplitTable's split, its cut faces are marked, and every
+// vertex the cut touched gets one copy per group of its tets joined across unmarked faces.
+// Vertices within `snap` of the swept surface are taken as lying on it (no sliver point next to
+// them), so cuts through grid vertices, along edges and along faces come out clean.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include "tissue_cut/cut/blade.hpp"
+#include "tissue_cut/cut/split_table.hpp"
+#include "tissue_cut/cut/sweep.hpp"
+#include "tissue_cut/mesh/tet_grid.hpp"
+#include "tissue_cut/mesh/tet_mesh.hpp"
+
+namespace tissue_cut {
+
+struct CutterOptions {
+  /// A blade end moving further than this in one tick is lifted and put down again [m].
+  double max_jump = 0.02;
+  /// Vertices closer to the swept surface than this fraction of the mean edge length lie on it.
+  double snap = 0.08;
+};
+
+/// The paper's counts and the cutter's own.
+struct CutCounts {
+  int cut_tetrahedra = 0;      ///< tets replaced (#CuT)
+  int created_tetrahedra = 0;  ///< tets they were replaced by (#CrT)
+  double time_ms = 0.0;        ///< time in cutting (t.Repl)
+  int separated_vertices = 0;  ///< vertex copies made to open the cut
+  int lifts = 0;               ///< jumps treated as the blade lifted
+  std::array<int, 7> by_kind{};///< replacements per SplitKind
+};
+
+class Cutter {
+ public:
+  Cutter(TetMesh* mesh, const CutterOptions& options);
+
+  /// One tick: `blade` is the blade now (mesh frame [m]), or none when it is away. Changes the
+  /// mesh and appends what changed to `change`. Returns a warning (a lift) or "".
+  std::string step(const std::optional<BladeSegment>& blade, ChangeRecord* change);
+
+  /// Tells the cutter about topology changes made by others (collapse), after they happened.
+  void follow(const ChangeRecord& change);
+
+  /// The cutter's own invariants on top of TetMesh::validate(): every pending tet's children are
+  /// live and fill it. "" when fine.
+  std::string validate() const;
+
+  bool hasPending() const { return !pending_.empty(); }
+  int numPending() const { return static_cast<int>(pending_.size()); }
+  /// True for tets that are temporary pieces of a tet the blade is still inside.
+  bool isPendingPiece(int t) const;
+  const CutCounts& counts() const { return counts_; }
+  const std::unordered_set<int>& verticesOnCut() const { return on_cut_; }
+  /// Resets all cut state (after the mesh was replaced).
+  void reset();
+
+ private:
+  struct Pending {
+    TetCut cut;
+    std::vector<int> pieces;  // tet slots that stand for it now
+    int steiner = -1;
+    bool dirty = false;
+  };
+  // A tet of the coarse mesh the blade cuts: a pending tet, or a plain live tet.
+  struct Coarse {
+    int pending = -1;
+    int tet = -1;
+  };
+
+  void sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change);
+  void crossFront(const std::vector<std::array<Vec3, 2>>& front, ChangeRecord* change);
+  std::vector<Coarse> coarseNear(const Vec3& lo, const Vec3& hi);
+  TetVerts cornersOf(const Coarse& c) const;
+  bool coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const;
+  int makePending(int tet);
+  void registerEdgePoint(int a, int b, double s, ChangeRecord* change);
+  void registerFacePoint(const std::array<int, 3>& face, const Vec3& weights, ChangeRecord* change);
+  void trySnap(int v, const std::array<Triangle, 2>& tris);
+  void subdivide(int pid, ChangeRecord* change);
+  void finalize(int pid, ChangeRecord* change, std::vector<int>* touched);
+  void finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change);
+  void separate(const std::vector<int>& touched, ChangeRecord* change);
+  int addSteiner(const Pending& p, ChangeRecord* change);
+  void setPieces(int pid, const std::vector<int>& pieces);
+  void replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
+               ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids);
+  void refreshGrid(const ChangeRecord& change);
+
+  TetMesh* mesh_;
+  CutterOptions options_;
+  double snap_distance_ = 0.0, mean_edge_ = 0.0;
+  TetGrid grid_;
+  std::optional<BladeSegment> previous_;
+  std::unordered_map<int, Pending> pending_;
+  int next_pending_ = 0;
+  std::vector<int> pending_of_;            // per tet slot
+  std::unordered_set<int> on_cut_;         // vertices lying on the cut surface (snapped)
+  std::set<std::array<int, 3>> marked_;    // cut faces not opened yet (sorted ids)
+  CutCounts counts_;
+};
+
+}  // namespace tissue_cut

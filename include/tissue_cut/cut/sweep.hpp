@@ -1,0 +1,33 @@
+// Geometry of the blade's sweep: the bilinear quad between two blade positions as two triangles,
+// and the intersection tests the cutter needs.
+#pragma once
+
+#include <array>
+
+#include "tissue_cut/cut/blade.hpp"
+#include "tissue_cut/mesh/tet_mesh.hpp"
+
+namespace tissue_cut {
+
+using Triangle = std::array<Vec3, 3>;
+
+/// The quad swept from `from` to `to` as two triangles (base0, tip0, tip1) and (base0, tip1, base1).
+std::array<Triangle, 2> sweptTriangles(const BladeSegment& from, const BladeSegment& to);
+
+/// Area of a triangle [m^2].
+double triangleArea(const Triangle& t);
+
+/// Where segment p->q crosses triangle t: true with the segment parameter s in [0, 1] and the
+/// barycentric coordinates of the crossing, when p and q lie strictly on opposite sides of the
+/// triangle's plane and the crossing is inside the triangle grown by `margin` (barycentric).
+bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const Triangle& t, double margin,
+                            double* s, Vec3* barycentric);
+
+/// True when x is within `distance` [m] of the triangle's plane and projects inside it.
+bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance);
+
+/// True when segment p->q meets the tet (a, b, c, d) grown by `tolerance` [m].
+bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
+                     const Vec3& d, double tolerance);
+
+}  // namespace tissue_cut

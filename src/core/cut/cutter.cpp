@@ -1,0 +1,477 @@
+#include "tissue_cut/cut/cutter.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <sstream>
+
+namespace tissue_cut {
+
+namespace {
+
+std::array<int, 3> sortedFace(int a, int b, int c) {
+  std::array<int, 3> k{a, b, c};
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+int localIndex(const TetVerts& t, int v) {
+  for (int i = 0; i < 4; ++i)
+    if (t[i] == v) return i;
+  return -1;
+}
+
+void renameIn(TetCut* cut, int from, int to) {
+  for (int& v : cut->corner)
+    if (v == from) v = to;
+  for (int& v : cut->edge_point)
+    if (v == from) v = to;
+  for (int& v : cut->face_point)
+    if (v == from) v = to;
+}
+
+}  // namespace
+
+Cutter::Cutter(TetMesh* mesh, const CutterOptions& options) : mesh_(mesh), options_(options) {
+  reset();
+}
+
+void Cutter::reset() {
+  pending_.clear();
+  on_cut_.clear();
+  marked_.clear();
+  previous_.reset();
+  counts_ = CutCounts{};
+  pending_of_.assign(mesh_->tetSlots(), -1);
+  double sum = 0.0;
+  const auto edges = mesh_->edges();
+  for (const auto& [a, b] : edges) sum += (mesh_->rest(a) - mesh_->rest(b)).norm();
+  mean_edge_ = edges.empty() ? 1.0 : sum / edges.size();
+  snap_distance_ = options_.snap * mean_edge_;
+  grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
+}
+
+bool Cutter::isPendingPiece(int t) const {
+  return t < static_cast<int>(pending_of_.size()) && pending_of_[t] >= 0;
+}
+
+void Cutter::refreshGrid(const ChangeRecord& change) { grid_.update(*mesh_, change); }
+
+void Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
+                     ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids) {
+  ChangeRecord local;
+  auto added = mesh_->replaceTets(remove, add, &local, from);
+  if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
+    pending_of_.resize(mesh_->tetSlots(), -1);
+  for (int t : remove) pending_of_[t] = -1;
+  refreshGrid(local);
+  change->append(local);
+  if (ids) *ids = std::move(added);
+}
+
+void Cutter::follow(const ChangeRecord& change) {
+  if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
+    pending_of_.resize(mesh_->tetSlots(), -1);
+  for (int t : change.removed_tets) pending_of_[t] = -1;
+  for (const auto& [gone, survivor] : change.merged_vertices) {
+    if (on_cut_.erase(gone)) on_cut_.insert(survivor);
+  }
+  refreshGrid(change);
+}
+
+TetVerts Cutter::cornersOf(const Coarse& c) const {
+  return c.pending >= 0 ? pending_.at(c.pending).cut.corner : mesh_->tet(c.tet);
+}
+
+std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
+  std::vector<Coarse> out;
+  std::unordered_set<int> seen_pending;
+  for (int t : grid_.query(*mesh_, lo, hi)) {
+    const int pid = pending_of_[t];
+    if (pid < 0) {
+      out.push_back({-1, t});
+    } else if (seen_pending.insert(pid).second) {
+      out.push_back({pid, -1});
+    }
+  }
+  return out;
+}
+
+bool Cutter::coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const {
+  out->clear();
+  std::unordered_set<int> seen;
+  for (int t : mesh_->vertexTets(verts[0])) {
+    const TetVerts& tv = mesh_->tet(t);
+    bool all = true;
+    for (int v : verts) all = all && localIndex(tv, v) >= 0;
+    if (!all) continue;
+    const int pid = pending_of_[t];
+    if (pid < 0) {
+      out->push_back({-1, t});
+      continue;
+    }
+    // Inside a pending tet the points must lie on one of its own edges or faces, still whole.
+    const Pending& p = pending_.at(pid);
+    std::vector<int> local;
+    for (int v : verts) {
+      const int i = localIndex(p.cut.corner, v);
+      if (i < 0) return false;
+      local.push_back(i);
+    }
+    if (verts.size() == 2 && p.cut.edge_point[tetEdgeIndex(local[0], local[1])] >= 0) return false;
+    if (verts.size() == 3 && p.cut.face_point[6 - local[0] - local[1] - local[2]] >= 0) return false;
+    if (seen.insert(pid).second) out->push_back({pid, -1});
+  }
+  return !out->empty();
+}
+
+int Cutter::makePending(int tet) {
+  const int pid = next_pending_++;
+  Pending& p = pending_[pid];
+  p.cut.corner = mesh_->tet(tet);
+  for (int c = 0; c < 4; ++c) p.cut.on_cut[c] = on_cut_.count(p.cut.corner[c]) > 0;
+  p.pieces = {tet};
+  pending_of_[tet] = pid;
+  return pid;
+}
+
+void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
+  std::vector<Coarse> around;
+  if (!coarseAround({a, b}, &around)) return;  // already cut here, or inside a pending tet
+  s = std::clamp(s, 1e-3, 1.0 - 1e-3);
+  const int v = mesh_->addVertex({{a, 1.0 - s}, {b, s}}, change);
+  for (const Coarse& c : around) {
+    const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
+    Pending& p = pending_[pid];
+    p.cut.edge_point[tetEdgeIndex(localIndex(p.cut.corner, a), localIndex(p.cut.corner, b))] = v;
+    p.dirty = true;
+  }
+}
+
+void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weights,
+                               ChangeRecord* change) {
+  std::vector<Coarse> around;
+  if (!coarseAround({face[0], face[1], face[2]}, &around)) return;
+  // Keep the point off the face's edges: a front through an edge lands just beside it.
+  Vec3 w = weights.cwiseMax(0.05);
+  w /= w.sum();
+  const int v = mesh_->addVertex({{face[0], w[0]}, {face[1], w[1]}, {face[2], w[2]}}, change);
+  for (const Coarse& c : around) {
+    const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
+    Pending& p = pending_[pid];
+    const int f = 6 - localIndex(p.cut.corner, face[0]) - localIndex(p.cut.corner, face[1]) -
+                  localIndex(p.cut.corner, face[2]);
+    p.cut.face_point[f] = v;
+    p.dirty = true;
+  }
+}
+
+void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris) {
+  if (on_cut_.count(v)) return;
+  const Vec3& x = mesh_->current(v);
+  if (!pointNearTriangle(x, tris[0], snap_distance_) && !pointNearTriangle(x, tris[1], snap_distance_))
+    return;
+  // A vertex next to a cut point already made stays off the cut: the point took its place.
+  for (int t : mesh_->vertexTets(v)) {
+    const int pid = pending_of_[t];
+    if (pid < 0) continue;
+    const Pending& p = pending_.at(pid);
+    const int i = localIndex(p.cut.corner, v);
+    if (i < 0) return;  // v is itself a cut point of a pending tet
+    for (int e = 0; e < 6; ++e)
+      if (p.cut.edge_point[e] >= 0 && (kTetEdge[e][0] == i || kTetEdge[e][1] == i)) return;
+  }
+  on_cut_.insert(v);
+  std::vector<int> around = mesh_->vertexTets(v);
+  for (int t : around) {
+    const int pid = pending_of_[t];
+    if (pid >= 0) {
+      Pending& p = pending_[pid];
+      p.cut.on_cut[localIndex(p.cut.corner, v)] = true;
+      continue;
+    }
+    // Three corners on the cut: the cut may run along a face; decided when the blade leaves.
+    int on = 0;
+    for (int u : mesh_->tet(t)) on += on_cut_.count(u) > 0;
+    if (on >= 3) makePending(t);
+  }
+}
+
+int Cutter::addSteiner(const Pending& p, ChangeRecord* change) {
+  const auto& c = p.cut.corner;
+  return mesh_->addVertex({{c[0], 0.25}, {c[1], 0.25}, {c[2], 0.25}, {c[3], 0.25}}, change);
+}
+
+void Cutter::setPieces(int pid, const std::vector<int>& pieces) {
+  Pending& p = pending_[pid];
+  p.pieces = pieces;
+  for (int t : pieces) pending_of_[t] = pid;
+}
+
+void Cutter::subdivide(int pid, ChangeRecord* change) {
+  Pending& p = pending_[pid];
+  p.dirty = false;
+  auto rest = [this](int v) { return mesh_->rest(v); };
+  auto cur = [this](int v) { return mesh_->current(v); };
+  TetSplit split = subdivideTet(p.cut, rest, cur, p.steiner);
+  if (split.kind == SplitKind::kNeedsSteiner) {
+    p.steiner = addSteiner(p, change);
+    split = subdivideTet(p.cut, rest, cur, p.steiner);
+  }
+  if (split.kind == SplitKind::kUntouched) return;
+  std::vector<int> ids;
+  const std::vector<int> old = p.pieces;
+  replace(old, split.tets, change, nullptr, &ids);
+  setPieces(pid, ids);
+}
+
+void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) {
+  Pending p = pending_[pid];
+  auto rest = [this](int v) { return mesh_->rest(v); };
+  auto cur = [this](int v) { return mesh_->current(v); };
+  TetSplit split = splitTet(p.cut, rest, cur, p.steiner);
+  if (split.kind == SplitKind::kNeedsSteiner) {
+    if (p.steiner < 0) p.steiner = addSteiner(p, change);
+    split = splitTet(p.cut, rest, cur, p.steiner);
+  }
+  ++counts_.by_kind[static_cast<int>(split.kind)];
+  for (const auto& f : split.cut_faces) {
+    marked_.insert(sortedFace(f[0], f[1], f[2]));
+    touched->insert(touched->end(), f.begin(), f.end());
+  }
+  if (split.kind == SplitKind::kUntouched || split.kind == SplitKind::kAlongFace) {
+    for (int t : p.pieces) pending_of_[t] = -1;
+  } else {
+    std::vector<int> ids;
+    const std::vector<int> from(split.tets.size(), -1);
+    replace(p.pieces, split.tets, change, &from, &ids);
+    ++counts_.cut_tetrahedra;
+    counts_.created_tetrahedra += static_cast<int>(ids.size());
+    for (const TetVerts& t : split.tets) touched->insert(touched->end(), t.begin(), t.end());
+  }
+  if (p.steiner >= 0 && mesh_->vertexAlive(p.steiner) && mesh_->vertexTets(p.steiner).empty()) {
+    ChangeRecord local;
+    mesh_->removeVertex(p.steiner, &local);
+    change->append(local);
+  }
+  pending_.erase(pid);
+}
+
+void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
+  std::vector<int> ids;
+  for (auto& [pid, p] : pending_) {
+    if (p.dirty) subdivide(pid, change);
+    ids.push_back(pid);
+  }
+  std::sort(ids.begin(), ids.end());
+  std::vector<int> touched;
+  for (int pid : ids) {
+    const TetVerts& c = pending_[pid].cut.corner;
+    if (blade && segmentMeetsTet(blade->base, blade->tip, mesh_->current(c[0]),
+                                 mesh_->current(c[1]), mesh_->current(c[2]),
+                                 mesh_->current(c[3]), 1e-3 * mean_edge_))
+      continue;
+    finalize(pid, change, &touched);
+  }
+  if (!touched.empty()) separate(touched, change);
+}
+
+void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) {
+  std::vector<int> touched = touched_in;
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  for (int v : touched) {
+    if (!mesh_->vertexAlive(v)) continue;
+    const std::vector<int> star = mesh_->vertexTets(v);
+    const int n = static_cast<int>(star.size());
+    std::vector<int> parent(n);
+    std::iota(parent.begin(), parent.end(), 0);
+    auto find = [&](int x) {
+      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      return x;
+    };
+    std::unordered_map<int, int> index;
+    for (int i = 0; i < n; ++i) index[star[i]] = i;
+    for (int i = 0; i < n; ++i) {
+      const TetVerts& tv = mesh_->tet(star[i]);
+      for (int f = 0; f < 4; ++f) {
+        if (tv[f] == v) continue;  // the face opposite v does not hold it
+        const int u = mesh_->neighbor(star[i], f);
+        if (u < 0) continue;
+        auto it = index.find(u);
+        if (it == index.end()) continue;
+        if (marked_.count(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]])))
+          continue;
+        parent[find(i)] = find(it->second);
+      }
+    }
+    std::map<int, std::vector<int>> groups;
+    for (int i = 0; i < n; ++i) groups[find(i)].push_back(star[i]);
+    if (groups.size() < 2) continue;
+    // The group holding a pending tet's pieces keeps the vertex, so pending state stays as is.
+    int keep = groups.begin()->first;
+    for (const auto& [root, tets] : groups)
+      for (int t : tets)
+        if (pending_of_[t] >= 0) keep = root;
+    for (const auto& [root, tets] : groups) {
+      if (root == keep) continue;
+      const int copy = mesh_->addVertex({{v, 1.0}}, change);
+      ++counts_.separated_vertices;
+      if (on_cut_.count(v)) on_cut_.insert(copy);
+      std::set<int> in_group(tets.begin(), tets.end());
+      // Cut faces between two tets of this group move to the copy; the others open.
+      for (int t : tets) {
+        const TetVerts& tv = mesh_->tet(t);
+        for (int f = 0; f < 4; ++f) {
+          if (tv[f] == v) continue;
+          auto key = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
+          if (!marked_.erase(key)) continue;
+          const int u = mesh_->neighbor(t, f);
+          if (u >= 0 && in_group.count(u)) {
+            for (int& x : key)
+              if (x == v) x = copy;
+            std::sort(key.begin(), key.end());
+            marked_.insert(key);
+          }
+        }
+      }
+      std::vector<TetVerts> renamed;
+      std::set<int> pendings;
+      for (int t : tets) {
+        TetVerts tv = mesh_->tet(t);
+        tv[localIndex(tv, v)] = copy;
+        renamed.push_back(tv);
+        if (pending_of_[t] >= 0) pendings.insert(pending_of_[t]);
+      }
+      std::vector<int> ids;
+      replace(tets, renamed, change, &tets, &ids);
+      for (int pid : pendings) {
+        Pending& p = pending_[pid];
+        renameIn(&p.cut, v, copy);
+        if (p.steiner == v) p.steiner = copy;
+        std::vector<int> pieces;
+        for (int t : p.pieces)
+          if (!in_group.count(t)) pieces.push_back(t);
+        for (std::size_t k = 0; k < tets.size(); ++k)
+          if (std::find(p.pieces.begin(), p.pieces.end(), tets[k]) != p.pieces.end())
+            pieces.push_back(ids[k]);
+        setPieces(pid, pieces);
+      }
+    }
+  }
+}
+
+void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change) {
+  const auto tris = sweptTriangles(from, to);
+  const double tiny = 1e-12 * mean_edge_ * mean_edge_;
+  if (triangleArea(tris[0]) <= tiny && triangleArea(tris[1]) <= tiny) return;
+  Vec3 lo = from.base.cwiseMin(from.tip).cwiseMin(to.base).cwiseMin(to.tip);
+  Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
+  lo.array() -= snap_distance_;
+  hi.array() += snap_distance_;
+  const std::vector<Coarse> near = coarseNear(lo, hi);
+  std::vector<TetVerts> corners;
+  for (const Coarse& c : near) corners.push_back(cornersOf(c));
+  for (const TetVerts& tv : corners)
+    for (int v : tv) trySnap(v, tris);
+  std::set<std::pair<int, int>> edges;
+  for (const TetVerts& tv : corners)
+    for (const auto& e : kTetEdge)
+      edges.insert({std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]])});
+  for (const auto& [a, b] : edges) {
+    if (on_cut_.count(a) || on_cut_.count(b)) continue;
+    if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b)) continue;
+    for (const Triangle& tri : tris) {
+      if (triangleArea(tri) <= tiny) continue;
+      double s;
+      Vec3 bary;
+      if (segmentCrossesTriangle(mesh_->current(a), mesh_->current(b), tri, 1e-9, &s, &bary)) {
+        registerEdgePoint(a, b, s, change);
+        break;
+      }
+    }
+  }
+}
+
+void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front, ChangeRecord* change) {
+  for (const auto& seg : front) {
+    if ((seg[1] - seg[0]).norm() <= 1e-9 * mean_edge_) continue;
+    Vec3 lo = seg[0].cwiseMin(seg[1]), hi = seg[0].cwiseMax(seg[1]);
+    const std::vector<Coarse> near = coarseNear(lo, hi);
+    std::set<std::array<int, 3>> faces;
+    for (const Coarse& c : near) {
+      const TetVerts tv = cornersOf(c);
+      for (const auto& f : kTetFace) faces.insert({tv[f[0]], tv[f[1]], tv[f[2]]});
+    }
+    std::set<std::array<int, 3>> done;
+    for (const auto& face : faces) {
+      if (!done.insert(sortedFace(face[0], face[1], face[2])).second) continue;
+      const Triangle tri{mesh_->current(face[0]), mesh_->current(face[1]), mesh_->current(face[2])};
+      double s;
+      Vec3 bary;
+      if (segmentCrossesTriangle(seg[0], seg[1], tri, 0.02, &s, &bary))
+        registerFacePoint(face, bary, change);
+    }
+  }
+}
+
+std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
+  const auto start = std::chrono::steady_clock::now();
+  std::string warning;
+  if (blade && grid_.needsRebuild(*mesh_)) grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
+  auto endStroke = [&] {
+    crossFront({{previous_->base, previous_->tip}}, change);
+    finalizeLeft(std::nullopt, change);
+  };
+  if (!blade) {
+    if (previous_) endStroke();
+  } else if (!previous_) {
+    crossFront({{blade->base, blade->tip}}, change);
+  } else if ((blade->base - previous_->base).norm() > options_.max_jump ||
+             (blade->tip - previous_->tip).norm() > options_.max_jump) {
+    std::ostringstream msg;
+    msg << "the blade jumped " << std::max((blade->base - previous_->base).norm(),
+                                           (blade->tip - previous_->tip).norm())
+        << " m in one tick (over cut/max_jump = " << options_.max_jump
+        << " m): treated as lifted and put down again, no cut across the gap";
+    warning = msg.str();
+    ++counts_.lifts;
+    endStroke();
+    crossFront({{blade->base, blade->tip}}, change);
+  } else {
+    sweep(*previous_, *blade, change);
+    crossFront({{previous_->tip, blade->tip}, {previous_->base, blade->base}}, change);
+  }
+  previous_ = blade;
+  finalizeLeft(blade, change);
+  counts_.time_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return warning;
+}
+
+std::string Cutter::validate() const {
+  for (const auto& [pid, p] : pending_) {
+    double sum = 0.0;
+    for (int t : p.pieces) {
+      if (t >= mesh_->tetSlots() || !mesh_->tetAlive(t))
+        return "pending tet " + std::to_string(pid) + " has a dead piece " + std::to_string(t);
+      if (pending_of_[t] != pid)
+        return "piece " + std::to_string(t) + " does not know its pending tet " + std::to_string(pid);
+      sum += mesh_->restVolume(t);
+    }
+    const auto& c = p.cut.corner;
+    const double whole =
+        signedVolume(mesh_->rest(c[0]), mesh_->rest(c[1]), mesh_->rest(c[2]), mesh_->rest(c[3]));
+    if (std::abs(sum - whole) > 1e-9 * std::abs(whole))
+      return "pieces of pending tet " + std::to_string(pid) + " do not fill it";
+  }
+  for (int t = 0; t < static_cast<int>(pending_of_.size()); ++t)
+    if (pending_of_[t] >= 0 && (t >= mesh_->tetSlots() || !mesh_->tetAlive(t) ||
+                                !pending_.count(pending_of_[t])))
+      return "tet " + std::to_string(t) + " is marked pending but is not";
+  return "";
+}
+
+}  // namespace tissue_cut

@@ -1,0 +1,73 @@
+#include "tissue_cut/cut/sweep.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tissue_cut {
+
+std::array<Triangle, 2> sweptTriangles(const BladeSegment& from, const BladeSegment& to) {
+  return {Triangle{from.base, from.tip, to.tip}, Triangle{from.base, to.tip, to.base}};
+}
+
+double triangleArea(const Triangle& t) { return 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).norm(); }
+
+namespace {
+
+// Barycentric coordinates of x (assumed in the plane) in triangle t with normal n = (b-a)x(c-a).
+Vec3 barycentric(const Vec3& x, const Triangle& t, const Vec3& n) {
+  const double nn = n.squaredNorm();
+  const double u = n.dot((t[2] - t[1]).cross(x - t[1])) / nn;
+  const double v = n.dot((t[0] - t[2]).cross(x - t[2])) / nn;
+  return Vec3(u, v, 1.0 - u - v);
+}
+
+}  // namespace
+
+bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const Triangle& t, double margin,
+                            double* s, Vec3* bary) {
+  const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
+  const double len = n.norm();
+  if (!(len > 0)) return false;
+  const double dp = n.dot(p - t[0]) / len, dq = n.dot(q - t[0]) / len;
+  if (!((dp > 0 && dq < 0) || (dp < 0 && dq > 0))) return false;
+  const double param = dp / (dp - dq);
+  const Vec3 x = p + param * (q - p);
+  const Vec3 b = barycentric(x, t, n);
+  if (b.minCoeff() < -margin) return false;
+  *s = param;
+  *bary = b;
+  return true;
+}
+
+bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance) {
+  const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
+  const double len = n.norm();
+  if (!(len > 0)) return false;
+  const double d = n.dot(x - t[0]) / len;
+  if (std::abs(d) > distance) return false;
+  const Vec3 projected = x - d * n / len;
+  return barycentric(projected, t, n).minCoeff() >= 0.0;
+}
+
+bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
+                     const Vec3& d, double tolerance) {
+  // Clip the segment's parameter range against the four face planes (outward normals).
+  const Vec3 v[4] = {a, b, c, d};
+  const double orientation = signedVolume(a, b, c, d) >= 0 ? 1.0 : -1.0;
+  double lo = 0.0, hi = 1.0;
+  for (const auto& f : kTetFace) {
+    Vec3 n = orientation * (v[f[1]] - v[f[0]]).cross(v[f[2]] - v[f[0]]);
+    const double len = n.norm();
+    if (!(len > 0)) continue;
+    n /= len;
+    const double dp = n.dot(p - v[f[0]]) - tolerance;  // inside when <= 0
+    const double dq = n.dot(q - v[f[0]]) - tolerance;
+    if (dp > 0 && dq > 0) return false;
+    if (dp > 0) lo = std::max(lo, dp / (dp - dq));
+    if (dq > 0) hi = std::min(hi, dp / (dp - dq));
+    if (lo > hi) return false;
+  }
+  return true;
+}
+
+}  // namespace tissue_cut
