@@ -82,11 +82,13 @@ class Cutter {
   };
 
   void sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change);
-  void crossFront(const std::vector<std::array<Vec3, 2>>& front, ChangeRecord* change);
+  void crossFront(const std::vector<std::array<Vec3, 2>>& front, const Vec3& inward,
+                  ChangeRecord* change);
   std::vector<Coarse> coarseNear(const Vec3& lo, const Vec3& hi);
   TetVerts cornersOf(const Coarse& c) const;
   bool coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const;
   int makePending(int tet);
+  bool faceOnBoundary(const Coarse& c, const std::array<int, 3>& face) const;
   void registerEdgePoint(int a, int b, double s, ChangeRecord* change);
   void registerFacePoint(const std::array<int, 3>& face, const Vec3& weights, ChangeRecord* change);
   void trySnap(int v, const std::array<Triangle, 2>& tris);
@@ -94,6 +96,8 @@ class Cutter {
   void finalize(int pid, ChangeRecord* change, std::vector<int>* touched);
   void finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change);
   void separate(const std::vector<int>& touched, ChangeRecord* change);
+  std::vector<std::vector<int>> groupsAround(int v) const;
+  void keepBoundaryManifold(const std::vector<int>& verts);
   int addSteiner(const Pending& p, ChangeRecord* change);
   void setPieces(int pid, const std::vector<int>& pieces);
   void replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
@@ -105,6 +109,9 @@ class Cutter {
   double snap_distance_ = 0.0, mean_edge_ = 0.0;
   TetGrid grid_;
   std::optional<BladeSegment> previous_;
+  Vec3 last_motion_ = Vec3::Zero();  // the blade's last move, to push a stroke's end ahead
+  double frontShift() const { return 0.6 * snap_distance_; }
+  bool stroke_start_ = false;  // no area swept yet in this stroke: the blade's line is front
   std::unordered_map<int, Pending> pending_;
   int next_pending_ = 0;
   std::vector<int> pending_of_;            // per tet slot

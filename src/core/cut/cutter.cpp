@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -100,29 +102,35 @@ std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
 }
 
 bool Cutter::coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const {
+  // The coarse tets (plain tets and pending tets) having all of `verts` as corners. A pending
+  // tet's pieces may split its faces, so pending tets are matched by their corners. False when
+  // the edge or face is already cut or lies inside a pending tet (a crossing there is ignored:
+  // the blade crossed it twice).
   out->clear();
   std::unordered_set<int> seen;
   for (int t : mesh_->vertexTets(verts[0])) {
     const TetVerts& tv = mesh_->tet(t);
-    bool all = true;
-    for (int v : verts) all = all && localIndex(tv, v) >= 0;
-    if (!all) continue;
+    bool fine_holds = true;
+    for (int v : verts) fine_holds = fine_holds && localIndex(tv, v) >= 0;
     const int pid = pending_of_[t];
     if (pid < 0) {
-      out->push_back({-1, t});
+      if (fine_holds) out->push_back({-1, t});
       continue;
     }
-    // Inside a pending tet the points must lie on one of its own edges or faces, still whole.
     const Pending& p = pending_.at(pid);
     std::vector<int> local;
     for (int v : verts) {
       const int i = localIndex(p.cut.corner, v);
-      if (i < 0) return false;
-      local.push_back(i);
+      if (i >= 0) local.push_back(i);
     }
+    if (local.size() != verts.size()) {
+      if (fine_holds) return false;  // a piece's own edge or face, inside the pending tet
+      continue;
+    }
+    if (!seen.insert(pid).second) continue;
     if (verts.size() == 2 && p.cut.edge_point[tetEdgeIndex(local[0], local[1])] >= 0) return false;
     if (verts.size() == 3 && p.cut.face_point[6 - local[0] - local[1] - local[2]] >= 0) return false;
-    if (seen.insert(pid).second) out->push_back({pid, -1});
+    out->push_back({pid, -1});
   }
   return !out->empty();
 }
@@ -150,10 +158,40 @@ void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
   }
 }
 
+bool Cutter::faceOnBoundary(const Coarse& c, const std::array<int, 3>& face) const {
+  if (c.pending < 0) {
+    const TetVerts& tv = mesh_->tet(c.tet);
+    return mesh_->neighbor(c.tet, 6 - localIndex(tv, face[0]) - localIndex(tv, face[1]) -
+                                      localIndex(tv, face[2])) < 0;
+  }
+  // A pending tet's face may be split among its pieces: look at a piece face lying on it.
+  const Pending& p = pending_.at(c.pending);
+  std::unordered_set<int> on_face(face.begin(), face.end());
+  int local[3];
+  for (int k = 0; k < 3; ++k) local[k] = localIndex(p.cut.corner, face[k]);
+  for (int i = 0; i < 3; ++i)
+    for (int j = i + 1; j < 3; ++j) {
+      const int e = p.cut.edge_point[tetEdgeIndex(local[i], local[j])];
+      if (e >= 0) on_face.insert(e);
+    }
+  for (int t : p.pieces) {
+    const TetVerts& tv = mesh_->tet(t);
+    for (int f = 0; f < 4; ++f) {
+      bool lies = true;
+      for (int k = 0; k < 3; ++k) lies = lies && on_face.count(tv[kTetFace[f][k]]);
+      if (lies) return mesh_->neighbor(t, f) < 0;
+    }
+  }
+  return false;
+}
+
 void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weights,
                                ChangeRecord* change) {
   std::vector<Coarse> around;
   if (!coarseAround({face[0], face[1], face[2]}, &around)) return;
+  // Both sides must take the point, or neither: a side already cut and replaced (its face split
+  // into smaller faces) cannot, so the crossing is ignored there.
+  if (around.size() == 1 && !faceOnBoundary(around[0], face)) return;
   // Keep the point off the face's edges: a front through an edge lands just beside it.
   Vec3 w = weights.cwiseMax(0.05);
   w /= w.sum();
@@ -225,6 +263,7 @@ void Cutter::subdivide(int pid, ChangeRecord* change) {
   const std::vector<int> old = p.pieces;
   replace(old, split.tets, change, nullptr, &ids);
   setPieces(pid, ids);
+
 }
 
 void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) {
@@ -278,45 +317,167 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
   if (!touched.empty()) separate(touched, change);
 }
 
+std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
+  const std::vector<int>& star = mesh_->vertexTets(v);
+  const int n = static_cast<int>(star.size());
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  std::unordered_map<int, int> index;
+  for (int i = 0; i < n; ++i) index[star[i]] = i;
+  for (int i = 0; i < n; ++i) {
+    const TetVerts& tv = mesh_->tet(star[i]);
+    for (int f = 0; f < 4; ++f) {
+      if (tv[f] == v) continue;  // the face opposite v does not hold it
+      const int u = mesh_->neighbor(star[i], f);
+      if (u < 0) continue;
+      auto it = index.find(u);
+      if (it == index.end()) continue;
+      if (marked_.count(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]])))
+        continue;
+      parent[find(i)] = find(it->second);
+    }
+  }
+  std::map<int, std::vector<int>> by_root;
+  for (int i = 0; i < n; ++i) by_root[find(i)].push_back(star[i]);
+  std::vector<std::vector<int>> groups;
+  for (auto& kv : by_root) groups.push_back(std::move(kv.second));
+  return groups;
+}
+
+void Cutter::keepBoundaryManifold(const std::vector<int>& verts) {
+  // Opening the cut splits vertices; a cut face opens where one of its vertices is split between
+  // its two tets. Where the cut surface ends at a vertex or edge that stays whole on both sides
+  // (a chord across the surface, two cracks touching at a point), the opened boundary would be
+  // pinched there. The separation is simulated first, and the cut faces around such a vertex are
+  // shut again (unmarked) until the boundary it would leave is a 2-manifold everywhere.
+  using Key = std::int64_t;  // a vertex and the group of it a tet will use (-1: not split)
+  auto key = [](int v, int k) { return (static_cast<Key>(v) << 20) | static_cast<Key>(k + 1); };
+  for (int round = 0; round < 32; ++round) {
+    std::unordered_map<int, std::unordered_map<int, int>> group_of;
+    std::set<int> region;
+    for (int v : verts) {
+      if (!mesh_->vertexAlive(v)) continue;
+      const auto groups = groupsAround(v);
+      if (groups.size() < 2) continue;
+      auto& g = group_of[v];
+      for (std::size_t k = 0; k < groups.size(); ++k)
+        for (int t : groups[k]) {
+          g[t] = static_cast<int>(k);
+          region.insert(t);
+        }
+    }
+    if (group_of.empty()) return;
+    auto renamed = [&](int t, int x) {
+      auto it = group_of.find(x);
+      return key(x, it == group_of.end() ? -1 : it->second.at(t));
+    };
+    auto renamedFace = [&](int t, int f) {
+      const TetVerts& tv = mesh_->tet(t);
+      std::array<Key, 3> k{renamed(t, tv[kTetFace[f][0]]), renamed(t, tv[kTetFace[f][1]]),
+                           renamed(t, tv[kTetFace[f][2]])};
+      return k;
+    };
+    auto sortedKey = [](std::array<Key, 3> k) {
+      std::sort(k.begin(), k.end());
+      return k;
+    };
+    // Faces that open: shared by two tets of the region that will name them differently.
+    std::set<std::array<int, 3>> opening;
+    std::set<int> check;  // vertices whose boundary changes
+    for (int t : region) {
+      const TetVerts& tv = mesh_->tet(t);
+      for (int f = 0; f < 4; ++f) {
+        const int u = mesh_->neighbor(t, f);
+        if (u < 0) continue;
+        const int g = localIndex(mesh_->tet(u), -1);  // unused; keeps the loop simple
+        (void)g;
+        const TetVerts& uv = mesh_->tet(u);
+        const int back = [&] {
+          for (int h = 0; h < 4; ++h)
+            if (mesh_->neighbor(u, h) == t) return h;
+          return -1;
+        }();
+        (void)uv;
+        if (sortedKey(renamedFace(t, f)) == sortedKey(renamedFace(u, back))) continue;
+        opening.insert(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]));
+        for (int k = 0; k < 3; ++k) check.insert(tv[kTetFace[f][k]]);
+      }
+    }
+    bool changed = false;
+    for (int w : check) {
+      // The boundary triangles around each copy of w after the split, as links next -> prev.
+      std::map<Key, std::vector<std::pair<Key, Key>>> fans;
+      for (int t : mesh_->vertexTets(w)) {
+        const TetVerts& tv = mesh_->tet(t);
+        for (int f = 0; f < 4; ++f) {
+          if (tv[f] == w) continue;
+          const int u = mesh_->neighbor(t, f);
+          bool boundary = u < 0;
+          if (!boundary) {
+            const auto k = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
+            boundary = opening.count(k) > 0;
+          }
+          if (!boundary) continue;
+          const auto face = renamedFace(t, f);
+          for (int k = 0; k < 3; ++k)
+            if (tv[kTetFace[f][k]] == w)
+              fans[face[k]].emplace_back(face[(k + 1) % 3], face[(k + 2) % 3]);
+        }
+      }
+      bool manifold = true;
+      for (const auto& [copy, ring] : fans) {
+        std::map<Key, Key> next;
+        for (const auto& [n, p] : ring) {
+          if (next.count(p)) manifold = false;
+          next[p] = n;
+        }
+        if (!manifold) break;
+        Key start = ring.front().second, cur = start;
+        std::size_t steps = 0;
+        do {
+          auto it = next.find(cur);
+          if (it == next.end()) break;
+          cur = it->second;
+          ++steps;
+        } while (cur != start && steps <= ring.size());
+        if (steps != ring.size() || cur != start) manifold = false;
+        if (!manifold) break;
+      }
+      if (manifold) continue;
+      for (int t : mesh_->vertexTets(w)) {
+        const TetVerts& tv = mesh_->tet(t);
+        for (int f = 0; f < 4; ++f) {
+          if (tv[f] == w) continue;
+          const auto k = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
+          if (opening.count(k)) changed |= marked_.erase(k) > 0;
+        }
+      }
+    }
+    if (!changed) return;
+  }
+}
+
 void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) {
   std::vector<int> touched = touched_in;
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  keepBoundaryManifold(touched);
   for (int v : touched) {
     if (!mesh_->vertexAlive(v)) continue;
-    const std::vector<int> star = mesh_->vertexTets(v);
-    const int n = static_cast<int>(star.size());
-    std::vector<int> parent(n);
-    std::iota(parent.begin(), parent.end(), 0);
-    auto find = [&](int x) {
-      while (parent[x] != x) x = parent[x] = parent[parent[x]];
-      return x;
-    };
-    std::unordered_map<int, int> index;
-    for (int i = 0; i < n; ++i) index[star[i]] = i;
-    for (int i = 0; i < n; ++i) {
-      const TetVerts& tv = mesh_->tet(star[i]);
-      for (int f = 0; f < 4; ++f) {
-        if (tv[f] == v) continue;  // the face opposite v does not hold it
-        const int u = mesh_->neighbor(star[i], f);
-        if (u < 0) continue;
-        auto it = index.find(u);
-        if (it == index.end()) continue;
-        if (marked_.count(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]])))
-          continue;
-        parent[find(i)] = find(it->second);
-      }
-    }
-    std::map<int, std::vector<int>> groups;
-    for (int i = 0; i < n; ++i) groups[find(i)].push_back(star[i]);
+    const auto groups = groupsAround(v);
     if (groups.size() < 2) continue;
     // The group holding a pending tet's pieces keeps the vertex, so pending state stays as is.
-    int keep = groups.begin()->first;
-    for (const auto& [root, tets] : groups)
-      for (int t : tets)
-        if (pending_of_[t] >= 0) keep = root;
-    for (const auto& [root, tets] : groups) {
-      if (root == keep) continue;
+    std::size_t keep = 0;
+    for (std::size_t k = 0; k < groups.size(); ++k)
+      for (int t : groups[k])
+        if (pending_of_[t] >= 0) keep = k;
+    for (std::size_t k = 0; k < groups.size(); ++k) {
+      if (k == keep) continue;
+      const std::vector<int>& tets = groups[k];
       const int copy = mesh_->addVertex({{v, 1.0}}, change);
       ++counts_.separated_vertices;
       if (on_cut_.count(v)) on_cut_.insert(copy);
@@ -354,9 +515,9 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
         std::vector<int> pieces;
         for (int t : p.pieces)
           if (!in_group.count(t)) pieces.push_back(t);
-        for (std::size_t k = 0; k < tets.size(); ++k)
-          if (std::find(p.pieces.begin(), p.pieces.end(), tets[k]) != p.pieces.end())
-            pieces.push_back(ids[k]);
+        for (std::size_t j = 0; j < tets.size(); ++j)
+          if (std::find(p.pieces.begin(), p.pieces.end(), tets[j]) != p.pieces.end())
+            pieces.push_back(ids[j]);
         setPieces(pid, pieces);
       }
     }
@@ -380,6 +541,21 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   for (const TetVerts& tv : corners)
     for (const auto& e : kTetEdge)
       edges.insert({std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]])});
+  // The ribbon's own edges (the tip's and base's paths, and the blade where the stroke began)
+  // are its front: an edge crossing right on the front is left whole and the front's face points
+  // take its place, so a front running along mesh faces makes no points on their edges.
+  std::vector<std::array<Vec3, 2>> front{{from.tip, to.tip}, {from.base, to.base}};
+  if (stroke_start_) front.push_back({from.base, from.tip});
+  const double front_gap = frontShift();
+  auto nearFront = [&](const Vec3& x) {
+    for (const auto& seg : front) {
+      const Vec3 d = seg[1] - seg[0];
+      const double len2 = d.squaredNorm();
+      const double t = len2 > 0 ? std::clamp((x - seg[0]).dot(d) / len2, 0.0, 1.0) : 0.0;
+      if ((x - (seg[0] + t * d)).norm() < front_gap) return true;
+    }
+    return false;
+  };
   for (const auto& [a, b] : edges) {
     if (on_cut_.count(a) || on_cut_.count(b)) continue;
     if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b)) continue;
@@ -387,17 +563,26 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       if (triangleArea(tri) <= tiny) continue;
       double s;
       Vec3 bary;
-      if (segmentCrossesTriangle(mesh_->current(a), mesh_->current(b), tri, 1e-9, &s, &bary)) {
-        registerEdgePoint(a, b, s, change);
+      const Vec3 &pa = mesh_->current(a), &pb = mesh_->current(b);
+      if (segmentCrossesTriangle(pa, pb, tri, 1e-9, &s, &bary)) {
+        if (!nearFront(pa + s * (pb - pa))) registerEdgePoint(a, b, s, change);
         break;
       }
     }
   }
 }
 
-void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front, ChangeRecord* change) {
-  for (const auto& seg : front) {
-    if ((seg[1] - seg[0]).norm() <= 1e-9 * mean_edge_) continue;
+void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const Vec3& inward,
+                        ChangeRecord* change) {
+  // A front running exactly along mesh faces or through edges (a tip at the depth of a grid
+  // plane) is moved by frontShift() into the cut surface (the tip's path toward the base, the
+  // base's toward the tip, a stroke's end ahead of it): then it crosses face interiors on one side
+  // only. Edge crossings closer than that to the front are not made (see sweep()), so the points
+  // of every tet still describe one surface ending at the moved front.
+  const Vec3 shift = inward.norm() > 0 ? Vec3(frontShift() * inward.normalized()) : Vec3::Zero();
+  for (auto seg : front_in) {
+    seg[0] += shift;
+    seg[1] += shift;
     Vec3 lo = seg[0].cwiseMin(seg[1]), hi = seg[0].cwiseMax(seg[1]);
     const std::vector<Coarse> near = coarseNear(lo, hi);
     std::set<std::array<int, 3>> faces;
@@ -411,7 +596,7 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front, ChangeRec
       const Triangle tri{mesh_->current(face[0]), mesh_->current(face[1]), mesh_->current(face[2])};
       double s;
       Vec3 bary;
-      if (segmentCrossesTriangle(seg[0], seg[1], tri, 0.02, &s, &bary))
+      if (segmentCrossesTriangle(seg[0], seg[1], tri, 1e-9, &s, &bary))
         registerFacePoint(face, bary, change);
     }
   }
@@ -422,13 +607,15 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   std::string warning;
   if (blade && grid_.needsRebuild(*mesh_)) grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
   auto endStroke = [&] {
-    crossFront({{previous_->base, previous_->tip}}, change);
+    crossFront({{previous_->base, previous_->tip}}, last_motion_, change);
     finalizeLeft(std::nullopt, change);
   };
   if (!blade) {
     if (previous_) endStroke();
   } else if (!previous_) {
-    crossFront({{blade->base, blade->tip}}, change);
+    last_motion_ = Vec3::Zero();
+    crossFront({{blade->base, blade->tip}}, Vec3::Zero(), change);
+    stroke_start_ = true;
   } else if ((blade->base - previous_->base).norm() > options_.max_jump ||
              (blade->tip - previous_->tip).norm() > options_.max_jump) {
     std::ostringstream msg;
@@ -439,10 +626,18 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     warning = msg.str();
     ++counts_.lifts;
     endStroke();
-    crossFront({{blade->base, blade->tip}}, change);
+    last_motion_ = Vec3::Zero();
+    crossFront({{blade->base, blade->tip}}, Vec3::Zero(), change);
+    stroke_start_ = true;
   } else {
     sweep(*previous_, *blade, change);
-    crossFront({{previous_->tip, blade->tip}, {previous_->base, blade->base}}, change);
+    const Vec3 motion = 0.5 * ((blade->base - previous_->base) + (blade->tip - previous_->tip));
+    if (motion.norm() > 1e-9 * mean_edge_) last_motion_ = motion;
+    const auto tris = sweptTriangles(*previous_, *blade);
+    if (triangleArea(tris[0]) + triangleArea(tris[1]) > 1e-12 * mean_edge_ * mean_edge_)
+      stroke_start_ = false;
+    crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
+    crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
   }
   previous_ = blade;
   finalizeLeft(blade, change);

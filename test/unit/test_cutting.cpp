@@ -1,0 +1,220 @@
+// Cutting by tetrahedra replacement, replayed on the built-in block: the cut goes where the blade
+// went, opens behind it, conserves volume, and leaves a valid mesh of the expected topology.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <numeric>
+
+#include "tissue_cut/cut/scalpel_path.hpp"
+#include "tissue_cut/mesh/block.hpp"
+#include "tissue_cut/mesh/topology.hpp"
+#include "tissue_cut/tissue.hpp"
+
+using namespace tissue_cut;
+
+namespace {
+
+Config cutOnly(double blade_length) {
+  Config c;
+  c.physics.enabled = false;
+  c.collapse.enabled = false;
+  c.cut.blade_length = blade_length;
+  return c;
+}
+
+// A straight move of the tool origin from `a` to `b` over `seconds`, blade pointing down.
+ScalpelPath line(const Vec3& a, const Vec3& b, double seconds,
+                 const Eigen::Quaterniond& q = Eigen::Quaterniond::Identity()) {
+  std::vector<ToolPose> poses;
+  for (int i = 0; i <= 20; ++i) {
+    ToolPose p;
+    p.t = seconds * i / 20.0;
+    p.position = a + (b - a) * (i / 20.0);
+    p.orientation = q;
+    poses.push_back(p);
+  }
+  return ScalpelPath(poses);
+}
+
+// Replays the path at `rate` through Tissue::step, then takes the blade away. Returns the first
+// validation error ("" when every tick was valid).
+std::string replay(Tissue& tissue, const ScalpelPath& path, double rate, bool lift_at_end = true) {
+  const double dt = 1.0 / rate;
+  const int ticks = static_cast<int>(std::ceil((path.endTime() - path.startTime()) / dt));
+  for (int k = 0; k <= ticks; ++k) {
+    const ToolPose pose = path.at(path.startTime() + std::min(k * dt, path.endTime()));
+    tissue.step(bladeFromPose(pose.position, pose.orientation, tissue.config().cut.blade_length), dt);
+    const std::string err = tissue.validate();
+    if (!err.empty()) return "tick " + std::to_string(k) + ": " + err;
+  }
+  if (lift_at_end) {
+    tissue.step(std::nullopt, dt);
+    const std::string err = tissue.validate();
+    if (!err.empty()) return "after lifting: " + err;
+  }
+  return "";
+}
+
+// Rest volume of each piece, largest first.
+std::vector<double> pieceVolumes(const TetMesh& mesh) {
+  std::vector<int> parent(mesh.tetSlots());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (int t = 0; t < mesh.tetSlots(); ++t)
+    if (mesh.tetAlive(t))
+      for (int f = 0; f < 4; ++f)
+        if (mesh.neighbor(t, f) >= 0) parent[find(t)] = find(mesh.neighbor(t, f));
+  std::map<int, double> volume;
+  for (int t = 0; t < mesh.tetSlots(); ++t)
+    if (mesh.tetAlive(t)) volume[find(t)] += mesh.restVolume(t);
+  std::vector<double> out;
+  for (const auto& kv : volume) out.push_back(kv.second);
+  std::sort(out.rbegin(), out.rend());
+  return out;
+}
+
+const double kBlockVolume = 0.1 * 0.06 * 0.03;
+
+}  // namespace
+
+TEST(Cutting, SeveringCutMakesTwoPiecesWhoseVolumesAddUp) {
+  Tissue tissue(cutOnly(0.06), makeBlock());
+  const double area_before = boundaryRestArea(tissue.mesh());
+  ASSERT_EQ(replay(tissue, line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 1.0), 1000), "");
+  EXPECT_FALSE(tissue.cutter().hasPending());
+  const auto pieces = pieceVolumes(tissue.mesh());
+  ASSERT_EQ(pieces.size(), 2u);
+  EXPECT_NEAR(pieces[0] + pieces[1], kBlockVolume, 1e-12 * kBlockVolume);
+  // The blade ran at y = 0.0013: the pieces are 0.1 x 0.03 x (0.03 -+ 0.0013).
+  EXPECT_NEAR(pieces[0], 0.1 * 0.03 * 0.0313, 0.02 * pieces[0]);
+  EXPECT_NEAR(pieces[1], 0.1 * 0.03 * 0.0287, 0.02 * pieces[1]);
+  // Both walls of the cut are new boundary: twice the swept area inside the block.
+  const double added = boundaryRestArea(tissue.mesh()) - area_before;
+  EXPECT_NEAR(added, 2 * 0.1 * 0.03, 0.02 * 2 * 0.1 * 0.03);
+  EXPECT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 4);  // two sphere-like pieces
+  const Statistics s = tissue.statistics();
+  EXPECT_GT(s.cut.cut_tetrahedra, 0);
+  const double per_cut = double(s.cut.created_tetrahedra) / s.cut.cut_tetrahedra;
+  EXPECT_GE(per_cut, 3.0);
+  EXPECT_LE(per_cut, 9.0);
+  EXPECT_EQ(s.region.tetrahedra, s.cut.created_tetrahedra);  // the flag on exactly those tets
+}
+
+TEST(Cutting, CutStoppingInsideLeavesOnePieceWithAClosedBoundary) {
+  Tissue tissue(cutOnly(0.03), makeBlock());
+  const double area_before = boundaryRestArea(tissue.mesh());
+  // The tip runs at z = 0.012 (1.8 cm deep, at the depth of a grid plane of the block) and
+  // stops at x = 0.01, inside the block, then is lifted out.
+  ASSERT_EQ(replay(tissue, line({-0.07, 0.0021, 0.042}, {0.01, 0.0021, 0.042}, 0.8), 1000), "");
+  EXPECT_FALSE(tissue.cutter().hasPending());
+  EXPECT_EQ(countPieces(tissue.mesh()), 1);
+  EXPECT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 2);
+  EXPECT_NEAR(tissue.mesh().restVolume(), kBlockVolume, 1e-12 * kBlockVolume);
+  // Crack walls: 6 cm long (x from -0.05 to 0.01), 1.8 cm deep, both sides.
+  const double added = boundaryRestArea(tissue.mesh()) - area_before;
+  EXPECT_NEAR(added, 2 * 0.06 * 0.018, 0.05 * 2 * 0.06 * 0.018);
+}
+
+TEST(Cutting, TetsOpenBehindTheBladeWhileItIsStillInside) {
+  Tissue tissue(cutOnly(0.03), makeBlock());
+  // Stop with the blade still in the block: everything behind it is cut and opened already.
+  ASSERT_EQ(replay(tissue, line({-0.07, 0.0021, 0.042}, {0.02, 0.0021, 0.042}, 0.9), 1000,
+                   /*lift_at_end=*/false),
+            "");
+  EXPECT_TRUE(tissue.cutter().hasPending());
+  EXPECT_LT(tissue.cutter().numPending(), 40);  // only the tets around the blade
+  EXPECT_GT(tissue.cutter().counts().separated_vertices, 50);
+  EXPECT_GT(tissue.statistics().cut.cut_tetrahedra, 100);
+  tissue.step(std::nullopt, 1e-3);
+  EXPECT_EQ(tissue.validate(), "");
+  EXPECT_FALSE(tissue.cutter().hasPending());
+}
+
+TEST(Cutting, BladeInAGridPlaneSeparatesAlongFacesWithoutSplitting) {
+  Tissue tissue(cutOnly(0.06), makeBlock());
+  // y = 0 is a plane of grid vertices, edges and faces of the block.
+  ASSERT_EQ(replay(tissue, line({-0.07, 0.0, 0.045}, {0.07, 0.0, 0.045}, 1.0), 1000), "");
+  const auto pieces = pieceVolumes(tissue.mesh());
+  ASSERT_EQ(pieces.size(), 2u);
+  EXPECT_NEAR(pieces[0], kBlockVolume / 2, 1e-12 * kBlockVolume);
+  EXPECT_NEAR(pieces[1], kBlockVolume / 2, 1e-12 * kBlockVolume);
+  EXPECT_EQ(tissue.statistics().cut.cut_tetrahedra, 0);
+  EXPECT_EQ(tissue.mesh().numTets(), 5100);
+}
+
+TEST(Cutting, BladeThroughAGridLineAtAnAngleStaysValid) {
+  Tissue tissue(cutOnly(0.06), makeBlock());
+  // A diagonal plane through grid vertices: x = y * (0.1/17) / 0.006 passes vertex columns.
+  const double dx = 0.1 / 17;
+  ASSERT_EQ(replay(tissue, line({-4 * dx, -0.04, 0.045}, {4 * dx * 0.07 / 0.04 * 1.0, 0.07, 0.045}, 1.0),
+                   1000),
+            "");
+  EXPECT_EQ(countPieces(tissue.mesh()), 2);
+  EXPECT_NEAR(tissue.mesh().restVolume(), kBlockVolume, 1e-12 * kBlockVolume);
+}
+
+TEST(Cutting, PlungeMoveAndWithdrawInsideTheBlock) {
+  Tissue tissue(cutOnly(0.02), makeBlock());
+  std::vector<ToolPose> poses;
+  auto at = [&](double t, double x, double z) {
+    ToolPose p;
+    p.t = t;
+    p.position = Vec3(x, 0.0031, z);
+    poses.push_back(p);
+  };
+  at(0.0, -0.02, 0.05);   // above the block
+  at(0.3, -0.02, 0.04);   // tip 1 cm deep
+  at(1.0, 0.025, 0.04);   // along x inside
+  at(1.3, 0.025, 0.05);   // withdrawn
+  ASSERT_EQ(replay(tissue, ScalpelPath(poses), 1000), "");
+  EXPECT_EQ(countPieces(tissue.mesh()), 1);
+  EXPECT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 2);
+  EXPECT_GT(tissue.statistics().cut.cut_tetrahedra, 20);
+}
+
+TEST(Cutting, AJumpLiftsTheBladeWithoutCuttingAcrossTheGap) {
+  Tissue tissue(cutOnly(0.06), makeBlock());
+  std::vector<ToolPose> poses;
+  ToolPose a, b;
+  a.t = 0.0;
+  a.position = Vec3(-0.07, 0.0013, 0.045);
+  b.t = 0.001;  // 14 cm in one tick
+  b.position = Vec3(0.07, 0.0013, 0.045);
+  poses = {a, b};
+  const std::string warning =
+      tissue.step(bladeFromPose(a.position, a.orientation, 0.06), 1e-3) +
+      tissue.step(bladeFromPose(b.position, b.orientation, 0.06), 1e-3);
+  EXPECT_NE(warning.find("jumped"), std::string::npos);
+  tissue.step(std::nullopt, 1e-3);
+  EXPECT_EQ(tissue.validate(), "");
+  EXPECT_EQ(tissue.statistics().cut.cut_tetrahedra, 0);
+  EXPECT_EQ(countPieces(tissue.mesh()), 1);
+}
+
+TEST(Cutting, DeformedBodyIsCutWhereTheBladeIsAndRestShapeStaysExact) {
+  MeshData block = makeBlock();
+  Tissue tissue(cutOnly(0.06), block);
+  // Shear the current shape (as if the tissue were pushed sideways): y += 0.3 z.
+  auto& current = const_cast<TetMesh&>(tissue.mesh()).currentPositions();
+  for (Vec3& p : current) p.y() += 0.3 * p.z();
+  ASSERT_EQ(replay(tissue, line({-0.07, 0.0043, 0.045}, {0.07, 0.0043, 0.045}, 1.0), 1000), "");
+  const TetMesh& mesh = tissue.mesh();
+  // Every new vertex lies on the blade's plane in current positions (up to snapping), and its
+  // rest position is where the same material was: rest = current with the shear undone.
+  int checked = 0;
+  for (int v = static_cast<int>(block.V.rows()); v < mesh.vertexSlots(); ++v) {
+    if (!mesh.vertexAlive(v)) continue;
+    const Vec3 r = mesh.rest(v), c = mesh.current(v);
+    EXPECT_NEAR(c.y(), r.y() + 0.3 * r.z(), 1e-12);
+    EXPECT_NEAR(c.x(), r.x(), 1e-12);
+    EXPECT_NEAR(c.y(), 0.0043, 1e-3) << "a cut point away from the blade's plane";
+    ++checked;
+  }
+  EXPECT_GT(checked, 100);
+  EXPECT_EQ(countPieces(mesh), 2);
+  EXPECT_NEAR(mesh.restVolume(), kBlockVolume, 1e-12 * kBlockVolume);
+}
