@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <random>
 
 #include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/mesh/block.hpp"
@@ -154,6 +155,41 @@ TEST(Cutting, BladeThroughAGridLineAtAnAngleStaysValid) {
                    1000),
             "");
   EXPECT_EQ(countPieces(tissue.mesh()), 2);
+  EXPECT_NEAR(tissue.mesh().restVolume(), kBlockVolume, 1e-12 * kBlockVolume);
+}
+
+TEST(Cutting, ZigZagBackAndForthStaysValid) {
+  Tissue tissue(cutOnly(0.025), makeBlock());
+  std::vector<ToolPose> poses;
+  for (int i = 0; i <= 60; ++i) {
+    ToolPose p;
+    p.t = i * 0.05;
+    const double x = -0.06 + 0.1 * std::abs(std::fmod(i / 30.0, 2.0) - 1.0) * 1.1;
+    p.position = Vec3(x, 0.012 * std::sin(i * 0.9), 0.045);
+    poses.push_back(p);
+  }
+  ASSERT_EQ(replay(tissue, ScalpelPath(poses), 1000), "");
+  EXPECT_FALSE(tissue.cutter().hasPending());
+  EXPECT_NEAR(tissue.mesh().restVolume(), kBlockVolume, 1e-12 * kBlockVolume);
+  EXPECT_GT(tissue.statistics().cut.cut_tetrahedra, 100);
+}
+
+TEST(Cutting, TiltedTremblingBladeStaysValid) {
+  Tissue tissue(cutOnly(0.04), makeBlock());
+  std::mt19937 rng(42);
+  std::normal_distribution<double> tremble(0.0, 0.0004);
+  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.35, Vec3(1, 0.3, 0).normalized()));
+  std::vector<ToolPose> poses;
+  for (int i = 0; i <= 200; ++i) {
+    ToolPose p;
+    p.t = i * 0.01;
+    p.position = Vec3(-0.07 + 0.14 * i / 200.0 + tremble(rng), 0.004 + tremble(rng),
+                      0.05 + tremble(rng));
+    p.orientation = tilt * Eigen::Quaterniond(Eigen::AngleAxisd(0.05 * tremble(rng) / 0.0004,
+                                                                Vec3::UnitZ()));
+    poses.push_back(p);
+  }
+  ASSERT_EQ(replay(tissue, ScalpelPath(poses), 1000), "");
   EXPECT_NEAR(tissue.mesh().restVolume(), kBlockVolume, 1e-12 * kBlockVolume);
 }
 

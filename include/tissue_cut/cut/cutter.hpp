@@ -89,6 +89,7 @@ class Cutter {
   bool coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const;
   int makePending(int tet);
   bool faceOnBoundary(const Coarse& c, const std::array<int, 3>& face) const;
+  bool conforming(const std::vector<Coarse>& around) const;
   void registerEdgePoint(int a, int b, double s, ChangeRecord* change);
   void registerFacePoint(const std::array<int, 3>& face, const Vec3& weights, ChangeRecord* change);
   void trySnap(int v, const std::array<Triangle, 2>& tris);

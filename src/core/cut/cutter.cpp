@@ -145,9 +145,29 @@ int Cutter::makePending(int tet) {
   return pid;
 }
 
+bool Cutter::conforming(const std::vector<Coarse>& around) const {
+  // Around one edge or face, a tet the blade left and that is cut again may have as a corner a
+  // point that is still only on an edge or face of a pending neighbour: their shared faces no
+  // longer match one to one, and a new point there could not be placed alike on both sides.
+  std::unordered_set<int> points;
+  for (const Coarse& c : around) {
+    if (c.pending < 0) continue;
+    const TetCut& cut = pending_.at(c.pending).cut;
+    for (int v : cut.edge_point)
+      if (v >= 0) points.insert(v);
+    for (int v : cut.face_point)
+      if (v >= 0) points.insert(v);
+  }
+  for (const Coarse& c : around)
+    for (int v : cornersOf(c))
+      if (points.count(v)) return false;
+  return true;
+}
+
 void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
   std::vector<Coarse> around;
   if (!coarseAround({a, b}, &around)) return;  // already cut here, or inside a pending tet
+  if (!conforming(around)) return;
   s = std::clamp(s, 1e-3, 1.0 - 1e-3);
   const int v = mesh_->addVertex({{a, 1.0 - s}, {b, s}}, change);
   for (const Coarse& c : around) {
@@ -192,6 +212,7 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
   // Both sides must take the point, or neither: a side already cut and replaced (its face split
   // into smaller faces) cannot, so the crossing is ignored there.
   if (around.size() == 1 && !faceOnBoundary(around[0], face)) return;
+  if (!conforming(around)) return;
   // Keep the point off the face's edges: a front through an edge lands just beside it.
   Vec3 w = weights.cwiseMax(0.05);
   w /= w.sum();
