@@ -14,6 +14,11 @@
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/tissue.hpp"
 
+#if defined(__SANITIZE_ADDRESS__)
+// Gmsh 4.8 keeps a few KB per STL tetrahedralisation inside libgmsh until exit.
+extern "C" const char* __lsan_default_suppressions() { return "leak:libgmsh.so\n"; }
+#endif
+
 namespace {
 
 constexpr int kExitUsage = 1;

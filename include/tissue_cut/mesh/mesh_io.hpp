@@ -36,6 +36,13 @@ struct MeshData {
 /// corners. Unused vertices are dropped and the rest renumbered in file order.
 /// Throws MeshIOError for a missing, empty, malformed or truncated file, a non-finite coordinate,
 /// an index out of range, a zero-volume tet, or more than options.max_tets tets.
+///
+/// Error messages read "<file name>: <where>: <what>", where <where> is "line N" or "byte offset
+/// N" (binary data) for a place in the file, or "tet N (element E)" / "(line L)" / "(cell C)" for
+/// the N-th tet, counted from 0 in file order (its row in MeshData::T).
+/// A .msh file is checked structurally before Gmsh reads it, since Gmsh's parser trusts its
+/// input. An .stl surface must be closed; Gmsh fills it with tets of edge length about
+/// options.stl_mesh_size.
 MeshData readMesh(const std::string& path, const MeshReadOptions& options = {});
 
 /// What writeMesh writes. Optional arrays may be left empty.
@@ -49,7 +56,9 @@ struct MeshWriteData {
 
 /// Writes a mesh chosen by extension: .vtk (legacy ASCII with point/cell data), .node or .ele
 /// (writes both files of the TetGen pair), .msh (Gmsh 2.2 ASCII). Throws MeshIOError when the
-/// file cannot be written or the extension is unknown.
+/// file cannot be written or the extension is unknown, and writes nothing when the arrays do not
+/// fit together (ids out of range, optional arrays of the wrong size, non-finite values), since
+/// such a file could not be read back.
 void writeMesh(const std::string& path, const MeshWriteData& data);
 
 }  // namespace tissue_cut

@@ -1,0 +1,154 @@
+// cut_replay as a user runs it: every mesh format in and out, statistics that agree with VTK,
+// and a clear error with a non-zero exit for every kind of bad input.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "tissue_cut/mesh/mesh_io.hpp"
+#include "tissue_cut/mesh/tet_mesh.hpp"
+
+using namespace tissue_cut;
+
+namespace {
+
+const std::string kSource = TISSUE_CUT_SOURCE_DIR;
+
+struct Outcome {
+  int status;
+  std::string output;  // stdout and stderr
+};
+
+Outcome run(const std::string& command) {
+  Outcome r{-1, ""};
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), pipe)) r.output += buf.data();
+  const int raw = pclose(pipe);
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return r;
+}
+
+Outcome replay(const std::string& args) { return run(std::string(TISSUE_CUT_REPLAY) + " " + args); }
+
+double volumeOf(const MeshData& m) {
+  TetMesh mesh(m.V, m.T);
+  return mesh.restVolume();
+}
+
+}  // namespace
+
+class ReplayRoundTrip : public testing::TestWithParam<std::string> {};
+
+TEST_P(ReplayRoundTrip, WritesEveryFormatBackWithTheSameTetsVolumeAndVtkQuality) {
+  const std::string mesh = GetParam();
+  const std::string source = mesh.empty() ? "" : "--mesh " + kSource + "/meshes/" + mesh;
+  const std::string stem = testing::TempDir() + "roundtrip_" + std::to_string(std::hash<std::string>{}(mesh));
+  for (const std::string ext : {".vtk", ".node", ".msh"}) {
+    const Outcome r = replay(source + " --quiet --out " + stem + ext + " --stats " + stem + ".json");
+    ASSERT_EQ(r.status, 0) << r.output;
+    std::ifstream js(stem + ".json");
+    const nlohmann::json stats = nlohmann::json::parse(js);
+    const MeshData back = readMesh(stem + ext);
+    EXPECT_EQ(back.T.rows(), stats["initial"]["tetrahedra"].get<int>()) << ext;
+    EXPECT_EQ(back.T.rows(), stats["mesh"]["tetrahedra"].get<int>()) << ext;
+    const double volume = stats["initial"]["volume_rest"].get<double>();
+    EXPECT_NEAR(volumeOf(back), volume, 1e-9 * volume) << ext;
+    if (ext == std::string(".vtk")) {
+      const Outcome q = run("/usr/bin/python3 " + kSource + "/test/vtk_quality.py " + stem + ext);
+      ASSERT_EQ(q.status, 0) << q.output;
+      int count = 0;
+      double qmin = 0, qmean = 0;
+      ASSERT_EQ(std::sscanf(q.output.c_str(), "%d %lf %lf", &count, &qmin, &qmean), 3) << q.output;
+      EXPECT_EQ(count, back.T.rows());
+      EXPECT_NEAR(stats["quality"]["min"].get<double>(), qmin, 1e-6);
+      EXPECT_NEAR(stats["quality"]["mean"].get<double>(), qmean, 1e-6);
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(ProjectMeshes, ReplayRoundTrip,
+                         testing::Values("", "ellipsoid_v22.msh", "holed_block_v41.msh",
+                                         "sphere_tetgen.node", "beam_ascii.vtk",
+                                         "beam_binary.vtk", "capsule.stl", "capsule_binary.stl"));
+
+struct BadInput {
+  std::string args;
+  int status;
+  std::string says;  // a fragment the error must contain
+};
+
+TEST(CutReplayCli, RefusesBadInputWithAClearMessage) {
+  const std::string bad = kSource + "/test/data/bad/";
+  const BadInput cases[] = {
+      {"--mesh /nonexistent/organ.msh", 2, "organ.msh"},
+      {"--mesh " + bad + "msh22_truncated.msh", 2, "msh22_truncated.msh"},
+      {"--mesh " + bad + "msh41_garbage.msh", 2, "msh41_garbage.msh"},
+      {"--mesh " + bad + "vtk_nonfinite.vtk", 2, "vtk_nonfinite.vtk"},
+      {"--mesh " + bad + "vtk_zero_volume.vtk", 2, "vtk_zero_volume.vtk"},
+      {"--mesh " + bad + "tetgen_out_of_range.node", 2, "tetgen_out_of_range"},
+      {"--mesh " + bad + "stl_open.stl", 2, "stl_open.stl"},
+      {"--mesh " + bad + "mesh.xyz", 2, "mesh.xyz"},
+      {"--config /nonexistent/settings.yaml", 2, "settings.yaml"},
+      {"--rate 0", 2, "rate"},
+      {"--blade-length -0.01", 2, "cut/blade_length"},
+      {"--tau 3", 2, "collapse/tau"},
+      {"--rate fast", 1, "not a finite number"},
+      {"--settle -1", 1, "--settle"},
+      {"--frobnicate", 1, "unknown option"},
+      {"--path /nonexistent/cut.csv", 2, "cut.csv"},
+      {"--out /nonexistent/dir/out.vtk", 2, "out.vtk"},
+      {"--out " + testing::TempDir() + "out.obj", 2, "out.obj"},
+  };
+  for (const BadInput& c : cases) {
+    const Outcome r = replay(c.args);
+    EXPECT_EQ(r.status, c.status) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << c.args << "\n" << r.output;
+  }
+}
+
+TEST(CutReplayCli, RefusesAMalformedPathFileNamingTheLine) {
+  const std::string path = testing::TempDir() + "bad_path.csv";
+  std::ofstream(path) << "t,x,y,z,qx,qy,qz,qw\n0,0,0,0.05,0,0,0,1\n0.1,0,nan,0.05,0,0,0,1\n";
+  const Outcome r = replay("--path " + path);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("bad_path.csv: line 3"), std::string::npos) << r.output;
+}
+
+TEST(CutReplayCli, ConfigFileOverridesDefaultsAndFlagsOverrideTheFile) {
+  const std::string config = testing::TempDir() + "partial.yaml";
+  std::ofstream(config) << "rate: 250\ncollapse:\n  tau: 0.2\n";
+  const std::string stats = testing::TempDir() + "cfg.json";
+  const std::string path = kSource + "/meshes/paths/incision_block.csv";
+  Outcome r = replay("--quiet --config " + config + " --path " + path + " --stats " + stats);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream a(stats);
+  const auto s1 = nlohmann::json::parse(a);
+  EXPECT_EQ(s1["ticks"]["rate_hz"].get<double>(), 250.0);
+  r = replay("--quiet --config " + config + " --rate 500 --path " + path + " --stats " + stats);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream b(stats);
+  const auto s2 = nlohmann::json::parse(b);
+  EXPECT_EQ(s2["ticks"]["rate_hz"].get<double>(), 500.0);
+  EXPECT_EQ(s2["ticks"]["count"].get<int>(), 1000);  // 2 s at 500 Hz
+}
+
+TEST(CutReplayCli, StatisticsFileHasEveryKey) {
+  const std::string stats = testing::TempDir() + "keys.json";
+  const Outcome r = replay("--quiet --stats " + stats);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream in(stats);
+  const auto s = nlohmann::json::parse(in);
+  for (const char* key : {"mesh", "initial", "volume_rest", "volume_current", "quality", "cut",
+                          "collapse", "region", "physics", "ticks"})
+    EXPECT_TRUE(s.contains(key)) << key;
+  EXPECT_EQ(s["quality"]["histogram"].size(), 10u);
+  for (const char* key : {"link", "inversion", "quality", "boundary"})
+    EXPECT_TRUE(s["collapse"]["rejected"].contains(key)) << key;
+  for (const char* key : {"count", "rate_hz", "p50_ms", "p99_ms", "max_ms", "deadline_misses"})
+    EXPECT_TRUE(s["ticks"].contains(key)) << key;
+}
