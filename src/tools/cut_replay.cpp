@@ -32,7 +32,8 @@ Replays a scalpel path over a tissue mesh, offline, with the node's own Tissue::
   --path FILE.csv      scalpel path, header t,x,y,z,qx,qy,qz,qw (mesh frame, seconds)
   --blade-length L     blade length [m] (cut/blade_length)
   --rate HZ            ticks per second (rate), default 1000
-  --settle SECONDS     keep simulating this long after the path ends (blade stays put)
+  --settle SECONDS     keep simulating this long after the path ends (blade stays put);
+                       then one last tick lifts the blade out
   --no-physics         physics/enabled = false
   --no-collapse        collapse/enabled = false
   --tau T              collapse/tau
@@ -185,9 +186,11 @@ int main(int argc, char** argv) {
   const auto ticks = static_cast<long long>(std::ceil((t_path - t0 + opt.settle) / dt - 1e-9));
   const double deadline_ms = 1000.0 * dt;
   const auto wall_start = std::chrono::steady_clock::now();
-  for (long long k = 1; k <= ticks; ++k) {
+  // The last tick takes the blade away (lifted out of the tissue), so the cut it made is finished:
+  // every tet it was still inside is replaced and opened.
+  for (long long k = 1; k <= ticks + 1; ++k) {
     std::optional<BladeSegment> blade;
-    if (path) {
+    if (path && k <= ticks) {
       const ToolPose pose = path->at(std::min(t0 + k * dt, t_path));
       blade = bladeFromPose(pose.position, pose.orientation, config.cut.blade_length);
     }
@@ -229,9 +232,10 @@ int main(int argc, char** argv) {
     std::printf("splits      ");
     for (int k = 0; k < static_cast<int>(kinds.size()); ++k)
       if (kinds[k]) std::printf("%s %d  ", splitKindName(static_cast<SplitKind>(k)), kinds[k]);
-    std::printf("\n");
+    std::printf(" separated vertices %d, vertices waiting to separate %d\n",
+                tissue->cutter().counts().separated_vertices, tissue->cutter().numDeferred());
     std::printf("replay      %lld ticks (%.3f simulated s) in %.3f s wall: real-time factor %.2f\n",
-                ticks, ticks * dt, wall_s, wall_s > 0 ? ticks * dt / wall_s : 0.0);
+                ticks + 1, (ticks + 1) * dt, wall_s, wall_s > 0 ? (ticks + 1) * dt / wall_s : 0.0);
   }
   return 0;
 }

@@ -134,7 +134,7 @@ TEST(CutReplayCli, ConfigFileOverridesDefaultsAndFlagsOverrideTheFile) {
   std::ifstream b(stats);
   const auto s2 = nlohmann::json::parse(b);
   EXPECT_EQ(s2["ticks"]["rate_hz"].get<double>(), 500.0);
-  EXPECT_EQ(s2["ticks"]["count"].get<int>(), 1000);  // 2 s at 500 Hz
+  EXPECT_EQ(s2["ticks"]["count"].get<int>(), 1001);  // 2 s at 500 Hz, then the lift
 }
 
 TEST(CutReplayCli, StatisticsFileHasEveryKey) {

@@ -61,6 +61,8 @@ class Cutter {
 
   bool hasPending() const { return !pending_.empty(); }
   int numPending() const { return static_cast<int>(pending_.size()); }
+  /// Vertices on the cut whose split still waits (it would pinch the boundary for now).
+  int numDeferred() const { return static_cast<int>(deferred_.size()); }
   /// True for tets that are temporary pieces of a tet the blade is still inside.
   bool isPendingPiece(int t) const;
   const CutCounts& counts() const { return counts_; }
@@ -98,7 +100,7 @@ class Cutter {
   void finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change);
   void separate(const std::vector<int>& touched, ChangeRecord* change);
   std::vector<std::vector<int>> groupsAround(int v) const;
-  void keepBoundaryManifold(const std::vector<int>& verts);
+  std::set<int> safeSplits(const std::vector<int>& verts);
   int addSteiner(const Pending& p, ChangeRecord* change);
   void setPieces(int pid, const std::vector<int>& pieces);
   void replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
@@ -117,6 +119,7 @@ class Cutter {
   int next_pending_ = 0;
   std::vector<int> pending_of_;            // per tet slot
   std::unordered_set<int> on_cut_;         // vertices lying on the cut surface (snapped)
+  std::set<int> deferred_;                 // vertices to split once that keeps a 2-manifold
   std::set<std::array<int, 3>> marked_;    // cut faces not opened yet (sorted ids)
   CutCounts counts_;
 };

@@ -45,6 +45,7 @@ void Cutter::reset() {
   on_cut_.clear();
   marked_.clear();
   previous_.reset();
+  deferred_.clear();
   counts_ = CutCounts{};
   pending_of_.assign(mesh_->tetSlots(), -1);
   double sum = 0.0;
@@ -168,7 +169,8 @@ void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
   std::vector<Coarse> around;
   if (!coarseAround({a, b}, &around)) return;  // already cut here, or inside a pending tet
   if (!conforming(around)) return;
-  s = std::clamp(s, 1e-3, 1.0 - 1e-3);
+  // A point nearer a corner than this would only make a needle: keep it a little inside.
+  s = std::clamp(s, 0.05, 0.95);
   const int v = mesh_->addVertex({{a, 1.0 - s}, {b, s}}, change);
   for (const Coarse& c : around) {
     const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
@@ -335,7 +337,7 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
       continue;
     finalize(pid, change, &touched);
   }
-  if (!touched.empty()) separate(touched, change);
+  if (!touched.empty() || !deferred_.empty()) separate(touched, change);
 }
 
 std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
@@ -369,19 +371,21 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
   return groups;
 }
 
-void Cutter::keepBoundaryManifold(const std::vector<int>& verts) {
+std::set<int> Cutter::safeSplits(const std::vector<int>& verts) {
   // Opening the cut splits vertices; a cut face opens where one of its vertices is split between
-  // its two tets. Where the cut surface ends at a vertex or edge that stays whole on both sides
-  // (a chord across the surface, two cracks touching at a point), the opened boundary would be
-  // pinched there. The separation is simulated first, and the cut faces around such a vertex are
-  // shut again (unmarked) until the boundary it would leave is a 2-manifold everywhere.
+  // its two tets. While the blade is still cutting nearby, splitting some vertex may leave the
+  // boundary pinched at a neighbour that cannot split yet (its star is still joined through tets
+  // not cut yet). The separation is simulated first; a vertex whose split would pinch the
+  // boundary waits (it is tried again on later ticks, when the cut around it is complete).
+  std::set<int> allowed;
+  for (int v : verts)
+    if (mesh_->vertexAlive(v)) allowed.insert(v);
   using Key = std::int64_t;  // a vertex and the group of it a tet will use (-1: not split)
   auto key = [](int v, int k) { return (static_cast<Key>(v) << 20) | static_cast<Key>(k + 1); };
   for (int round = 0; round < 32; ++round) {
     std::unordered_map<int, std::unordered_map<int, int>> group_of;
     std::set<int> region;
-    for (int v : verts) {
-      if (!mesh_->vertexAlive(v)) continue;
+    for (int v : allowed) {
       const auto groups = groupsAround(v);
       if (groups.size() < 2) continue;
       auto& g = group_of[v];
@@ -391,7 +395,7 @@ void Cutter::keepBoundaryManifold(const std::vector<int>& verts) {
           region.insert(t);
         }
     }
-    if (group_of.empty()) return;
+    if (group_of.empty()) return allowed;
     auto renamed = [&](int t, int x) {
       auto it = group_of.find(x);
       return key(x, it == group_of.end() ? -1 : it->second.at(t));
@@ -469,28 +473,40 @@ void Cutter::keepBoundaryManifold(const std::vector<int>& verts) {
         if (!manifold) break;
       }
       if (manifold) continue;
+      // Hold back every split that opens a face at w.
       for (int t : mesh_->vertexTets(w)) {
         const TetVerts& tv = mesh_->tet(t);
         for (int f = 0; f < 4; ++f) {
           if (tv[f] == w) continue;
           const auto k = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
-          if (opening.count(k)) changed |= marked_.erase(k) > 0;
+          if (!opening.count(k)) continue;
+          for (int x : k)
+            if (group_of.count(x) && allowed.erase(x)) changed = true;
         }
       }
     }
-    if (!changed) return;
+    if (!changed) return allowed;
   }
+  return {};
 }
 
 void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) {
   std::vector<int> touched = touched_in;
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-  keepBoundaryManifold(touched);
+  for (int v : deferred_) touched.push_back(v);
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  const std::set<int> allowed = safeSplits(touched);
+  deferred_.clear();
   for (int v : touched) {
     if (!mesh_->vertexAlive(v)) continue;
     const auto groups = groupsAround(v);
     if (groups.size() < 2) continue;
+    if (!allowed.count(v)) {
+      deferred_.insert(v);
+      continue;
+    }
     // The group holding a pending tet's pieces keeps the vertex, so pending state stays as is.
     std::size_t keep = 0;
     for (std::size_t k = 0; k < groups.size(); ++k)
