@@ -254,3 +254,62 @@ TEST(Cutting, DeformedBodyIsCutWhereTheBladeIsAndRestShapeStaysExact) {
   EXPECT_EQ(countPieces(mesh), 2);
   EXPECT_NEAR(mesh.restVolume(), kBlockVolume, 1e-12 * kBlockVolume);
 }
+
+// The project's own meshes, from Gmsh and TetGen.
+namespace {
+
+MeshData projectMesh(const std::string& name) {
+  return readMesh(std::string(TISSUE_CUT_SOURCE_DIR) + "/meshes/" + name);
+}
+
+}  // namespace
+
+TEST(CuttingMeshes, EllipsoidIsSeveredInTwo) {
+  const MeshData mesh = projectMesh("ellipsoid_v22.msh");
+  Tissue tissue(cutOnly(0.25), mesh);
+  const double volume = tissue.mesh().restVolume();
+  ASSERT_EQ(replay(tissue, line({0.013, -0.13, 0.12}, {0.013, 0.13, 0.12}, 0.6), 1000), "");
+  EXPECT_EQ(countPieces(tissue.mesh()), 2);
+  EXPECT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 4);
+  EXPECT_NEAR(tissue.mesh().restVolume(), volume, 1e-12 * volume);
+}
+
+TEST(CuttingMeshes, CutBesideAThroughHoleLeavesTheHoleOpen) {
+  // The block (0.2 x 0.1 x 0.1 m) has a hole of radius 0.025 m along y at x = 0.1, z = 0.05.
+  Tissue tissue(cutOnly(0.04), projectMesh("holed_block_v41.msh"));
+  ASSERT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 0);
+  // The tip runs at z = 0.082, 7 mm above the hole, the whole length of the block.
+  ASSERT_EQ(replay(tissue, line({-0.02, 0.043, 0.122}, {0.22, 0.043, 0.122}, 0.8), 1000), "");
+  EXPECT_EQ(countPieces(tissue.mesh()), 1);
+  EXPECT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 0);  // still genus 1: the hole is open
+  EXPECT_GT(tissue.statistics().cut.cut_tetrahedra, 50);
+}
+
+TEST(CuttingMeshes, CutThroughTheHoleSplitsTheHoledBlockInTwo) {
+  Tissue tissue(cutOnly(0.2), projectMesh("holed_block_v41.msh"));
+  ASSERT_EQ(replay(tissue, line({0.1013, -0.03, 0.15}, {0.1013, 0.13, 0.15}, 0.6), 1000), "");
+  EXPECT_EQ(countPieces(tissue.mesh()), 2);
+  EXPECT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 4);  // two pieces, each with a groove
+}
+
+TEST(CuttingMeshes, CurvedCutStoppingInsideATetGenSphere) {
+  Tissue tissue(cutOnly(0.06), projectMesh("sphere_tetgen.node"));
+  const double volume = tissue.mesh().restVolume();
+  std::vector<ToolPose> poses;
+  for (int i = 0; i <= 40; ++i) {
+    const double s = i / 40.0;
+    ToolPose p;
+    p.t = 0.8 * s;
+    // A quadratic Bezier from outside the sphere to a stop inside it, 6 cm deep at most.
+    const Vec3 a(-0.14, -0.02, 0.13), b(-0.02, 0.04, 0.13), c(0.03, 0.0, 0.13);
+    p.position = (1 - s) * (1 - s) * a + 2 * s * (1 - s) * b + s * s * c;
+    poses.push_back(p);
+  }
+  ASSERT_EQ(replay(tissue, ScalpelPath(poses), 1000), "");
+  EXPECT_EQ(countPieces(tissue.mesh()), 1);
+  EXPECT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 2);
+  EXPECT_NEAR(tissue.mesh().restVolume(), volume, 1e-12 * volume);
+  const Statistics s = tissue.statistics();
+  EXPECT_GT(s.cut.cut_tetrahedra, 30);
+  EXPECT_EQ(s.region.tetrahedra, s.cut.created_tetrahedra);
+}
