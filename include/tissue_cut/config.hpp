@@ -18,10 +18,10 @@ class ConfigError : public std::runtime_error {
 
 /// Every setting of the model. Defaults equal config/tissue.yaml (a test holds them together).
 struct Config {
-  double rate = 1000.0;          ///< simulation ticks per second [Hz]
-  double publish_rate = 30.0;    ///< markers and statistics per second [Hz]
-  std::string frame_id = "world";///< the mesh frame
-  std::string mesh;              ///< mesh file; empty = the built-in block
+  double rate = 1000.0;                 ///< simulation ticks per second [Hz]
+  double publish_rate = 30.0;           ///< markers and statistics per second [Hz]
+  std::string frame_id = "world";       ///< the mesh frame
+  std::string mesh;                     ///< mesh file; empty = the built-in block
   std::size_t mesh_max_tets = 2000000;  ///< larger mesh files are refused [count]
   double block_cell_size = 0.006;       ///< built-in block's cell edge [m]
 
@@ -32,8 +32,8 @@ struct Config {
 
   struct Collapse {
     bool enabled = true;
-    double tau = 0.3;           ///< quality threshold: created tets below it queue an edge
-    double budget_us = 300.0;   ///< collapse work per tick [us]; 0 = unbounded
+    double tau = 0.3;          ///< quality threshold: created tets below it queue an edge
+    double budget_us = 300.0;  ///< collapse work per tick [us]; 0 = unbounded
   } collapse;
 
   struct Physics {

@@ -1,9 +1,8 @@
 // The model's figures: the paper's counts (#CuT, #CrT, #RmT), times, quality and tick timing.
 #pragma once
 
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "tissue_cut/mesh/quality.hpp"

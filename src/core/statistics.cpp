@@ -18,8 +18,8 @@ void TickTimes::record(double ms, double deadline_ms) {
 double TickTimes::percentile(double p) const {
   if (ms_.empty()) return 0.0;
   std::vector<double> sorted = ms_;
-  const std::size_t k = std::min(sorted.size() - 1,
-                                 static_cast<std::size_t>(p / 100.0 * (sorted.size() - 1) + 0.5));
+  const std::size_t k =
+      std::min(sorted.size() - 1, static_cast<std::size_t>(p / 100.0 * (sorted.size() - 1) + 0.5));
   std::nth_element(sorted.begin(), sorted.begin() + k, sorted.end());
   return sorted[k];
 }
@@ -37,18 +37,17 @@ void TickTimes::clear() {
 nlohmann::json Statistics::toJson() const {
   using nlohmann::json;
   json j;
-  j["mesh"] = {{"vertices", vertices},
-               {"tetrahedra", tetrahedra},
-               {"surface_triangles", surface_triangles}};
+  j["mesh"] = {
+      {"vertices", vertices}, {"tetrahedra", tetrahedra}, {"surface_triangles", surface_triangles}};
   j["initial"] = {{"vertices", initial_vertices},
                   {"tetrahedra", initial_tetrahedra},
                   {"volume_rest", initial_volume_rest}};
   j["volume_rest"] = volume_rest;
   j["volume_current"] = volume_current;
-  j["quality"] = {{"min", quality.min},
-                  {"mean", quality.mean},
-                  {"histogram", std::vector<int>(quality.histogram.begin(),
-                                                 quality.histogram.end())}};
+  j["quality"] = {
+      {"min", quality.min},
+      {"mean", quality.mean},
+      {"histogram", std::vector<int>(quality.histogram.begin(), quality.histogram.end())}};
   j["cut"] = {{"cut_tetrahedra", cut.cut_tetrahedra},
               {"created_tetrahedra", cut.created_tetrahedra},
               {"time_ms", cut.time_ms}};
@@ -68,12 +67,9 @@ nlohmann::json Statistics::toJson() const {
   j["physics"] = {{"mass_total", physics.mass_total},
                   {"kinetic_energy", physics.kinetic_energy},
                   {"instabilities", physics.instabilities}};
-  j["ticks"] = {{"count", ticks.count},
-                {"rate_hz", ticks.rate_hz},
-                {"p50_ms", ticks.p50_ms},
-                {"p99_ms", ticks.p99_ms},
-                {"max_ms", ticks.max_ms},
-                {"deadline_misses", ticks.deadline_misses}};
+  j["ticks"] = {{"count", ticks.count},   {"rate_hz", ticks.rate_hz},
+                {"p50_ms", ticks.p50_ms}, {"p99_ms", ticks.p99_ms},
+                {"max_ms", ticks.max_ms}, {"deadline_misses", ticks.deadline_misses}};
   return j;
 }
 

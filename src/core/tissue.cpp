@@ -1,9 +1,9 @@
 #include "tissue_cut/tissue.hpp"
 
+#include <unordered_map>
+
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/quality.hpp"
-
-#include <unordered_map>
 
 namespace tissue_cut {
 
@@ -45,7 +45,8 @@ void Tissue::applyChange(const ChangeRecord& change) {
     removed[t] = cut_region_[t];
     cut_region_[t] = 0;
   }
-  if (static_cast<int>(cut_region_.size()) < mesh_.tetSlots()) cut_region_.resize(mesh_.tetSlots(), 0);
+  if (static_cast<int>(cut_region_.size()) < mesh_.tetSlots())
+    cut_region_.resize(mesh_.tetSlots(), 0);
   for (std::size_t i = 0; i < change.added_tets.size(); ++i) {
     const int from = change.added_from[i];
     cut_region_[change.added_tets[i]] = from >= 0 ? removed[from] : 1;

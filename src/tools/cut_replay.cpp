@@ -132,8 +132,7 @@ void printSummary(const tissue_cut::Statistics& s) {
               s.collapse.collapsed_edges, s.collapse.removed_tetrahedra, s.collapse.pending,
               s.collapse.time_ms);
   std::printf("region      %d tets, quality mean %.4f, min %.4f, %d below tau\n",
-              s.region.tetrahedra, s.region.quality_mean, s.region.quality_min,
-              s.region.below_tau);
+              s.region.tetrahedra, s.region.quality_mean, s.region.quality_min, s.region.below_tau);
   std::printf("physics     mass %.6g kg, kinetic energy %.3g J, %d instabilities\n",
               s.physics.mass_total, s.physics.kinetic_energy, s.physics.instabilities);
   std::printf("ticks       %lld at %.0f Hz: p50 %.4f ms, p99 %.4f ms, max %.4f ms, %lld misses\n",
@@ -196,7 +195,8 @@ int main(int argc, char** argv) {
     }
     const auto start = std::chrono::steady_clock::now();
     const std::string warning = tissue->step(blade, dt);
-    if (!warning.empty() && !opt.quiet) std::cerr << "cut_replay: tick " << k << ": " << warning << "\n";
+    if (!warning.empty() && !opt.quiet)
+      std::cerr << "cut_replay: tick " << k << ": " << warning << "\n";
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     tissue->tickTimes().record(ms, deadline_ms);

@@ -42,7 +42,8 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.physics.fixed_axis = "x";
   other.physics.fixed_side = "max";
   other.physics.fixed_band = 0.5;
-  const Config f = loadConfigFile(std::string(TISSUE_CUT_SOURCE_DIR) + "/config/tissue.yaml", other);
+  const Config f =
+      loadConfigFile(std::string(TISSUE_CUT_SOURCE_DIR) + "/config/tissue.yaml", other);
   EXPECT_EQ(f.rate, d.rate);
   EXPECT_EQ(f.publish_rate, d.publish_rate);
   EXPECT_EQ(f.frame_id, d.frame_id);

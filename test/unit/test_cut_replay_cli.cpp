@@ -47,9 +47,11 @@ class ReplayRoundTrip : public testing::TestWithParam<std::string> {};
 TEST_P(ReplayRoundTrip, WritesEveryFormatBackWithTheSameTetsVolumeAndVtkQuality) {
   const std::string mesh = GetParam();
   const std::string source = mesh.empty() ? "" : "--mesh " + kSource + "/meshes/" + mesh;
-  const std::string stem = testing::TempDir() + "roundtrip_" + std::to_string(std::hash<std::string>{}(mesh));
+  const std::string stem =
+      testing::TempDir() + "roundtrip_" + std::to_string(std::hash<std::string>{}(mesh));
   for (const std::string ext : {".vtk", ".node", ".msh"}) {
-    const Outcome r = replay(source + " --quiet --out " + stem + ext + " --stats " + stem + ".json");
+    const Outcome r =
+        replay(source + " --quiet --out " + stem + ext + " --stats " + stem + ".json");
     ASSERT_EQ(r.status, 0) << r.output;
     std::ifstream js(stem + ".json");
     const nlohmann::json stats = nlohmann::json::parse(js);
@@ -73,8 +75,8 @@ TEST_P(ReplayRoundTrip, WritesEveryFormatBackWithTheSameTetsVolumeAndVtkQuality)
 
 INSTANTIATE_TEST_SUITE_P(ProjectMeshes, ReplayRoundTrip,
                          testing::Values("", "ellipsoid_v22.msh", "holed_block_v41.msh",
-                                         "sphere_tetgen.node", "beam_ascii.vtk",
-                                         "beam_binary.vtk", "capsule.stl", "capsule_binary.stl"));
+                                         "sphere_tetgen.node", "beam_ascii.vtk", "beam_binary.vtk",
+                                         "capsule.stl", "capsule_binary.stl"));
 
 struct BadInput {
   std::string args;

@@ -45,7 +45,8 @@ std::string replay(Tissue& tissue, const ScalpelPath& path, double rate, bool li
   const int ticks = static_cast<int>(std::ceil((path.endTime() - path.startTime()) / dt));
   for (int k = 0; k <= ticks; ++k) {
     const ToolPose pose = path.at(path.startTime() + std::min(k * dt, path.endTime()));
-    tissue.step(bladeFromPose(pose.position, pose.orientation, tissue.config().cut.blade_length), dt);
+    tissue.step(bladeFromPose(pose.position, pose.orientation, tissue.config().cut.blade_length),
+                dt);
     const std::string err = tissue.validate();
     if (!err.empty()) return "tick " + std::to_string(k) + ": " + err;
   }
@@ -151,9 +152,10 @@ TEST(Cutting, BladeThroughAGridLineAtAnAngleStaysValid) {
   Tissue tissue(cutOnly(0.06), makeBlock());
   // A diagonal plane through grid vertices: x = y * (0.1/17) / 0.006 passes vertex columns.
   const double dx = 0.1 / 17;
-  ASSERT_EQ(replay(tissue, line({-4 * dx, -0.04, 0.045}, {4 * dx * 0.07 / 0.04 * 1.0, 0.07, 0.045}, 1.0),
-                   1000),
-            "");
+  ASSERT_EQ(
+      replay(tissue, line({-4 * dx, -0.04, 0.045}, {4 * dx * 0.07 / 0.04 * 1.0, 0.07, 0.045}, 1.0),
+             1000),
+      "");
   EXPECT_EQ(countPieces(tissue.mesh()), 2);
   EXPECT_NEAR(tissue.mesh().restVolume(), kBlockVolume, 1e-12 * kBlockVolume);
 }
@@ -183,10 +185,10 @@ TEST(Cutting, TiltedTremblingBladeStaysValid) {
   for (int i = 0; i <= 200; ++i) {
     ToolPose p;
     p.t = i * 0.01;
-    p.position = Vec3(-0.07 + 0.14 * i / 200.0 + tremble(rng), 0.004 + tremble(rng),
-                      0.05 + tremble(rng));
-    p.orientation = tilt * Eigen::Quaterniond(Eigen::AngleAxisd(0.05 * tremble(rng) / 0.0004,
-                                                                Vec3::UnitZ()));
+    p.position =
+        Vec3(-0.07 + 0.14 * i / 200.0 + tremble(rng), 0.004 + tremble(rng), 0.05 + tremble(rng));
+    p.orientation =
+        tilt * Eigen::Quaterniond(Eigen::AngleAxisd(0.05 * tremble(rng) / 0.0004, Vec3::UnitZ()));
     poses.push_back(p);
   }
   ASSERT_EQ(replay(tissue, ScalpelPath(poses), 1000), "");
@@ -202,10 +204,10 @@ TEST(Cutting, PlungeMoveAndWithdrawInsideTheBlock) {
     p.position = Vec3(x, 0.0031, z);
     poses.push_back(p);
   };
-  at(0.0, -0.02, 0.05);   // above the block
-  at(0.3, -0.02, 0.04);   // tip 1 cm deep
-  at(1.0, 0.025, 0.04);   // along x inside
-  at(1.3, 0.025, 0.05);   // withdrawn
+  at(0.0, -0.02, 0.05);  // above the block
+  at(0.3, -0.02, 0.04);  // tip 1 cm deep
+  at(1.0, 0.025, 0.04);  // along x inside
+  at(1.3, 0.025, 0.05);  // withdrawn
   ASSERT_EQ(replay(tissue, ScalpelPath(poses), 1000), "");
   EXPECT_EQ(countPieces(tissue.mesh()), 1);
   EXPECT_EQ(boundaryEulerCharacteristic(tissue.mesh()), 2);
@@ -221,9 +223,8 @@ TEST(Cutting, AJumpLiftsTheBladeWithoutCuttingAcrossTheGap) {
   b.t = 0.001;  // 14 cm in one tick
   b.position = Vec3(0.07, 0.0013, 0.045);
   poses = {a, b};
-  const std::string warning =
-      tissue.step(bladeFromPose(a.position, a.orientation, 0.06), 1e-3) +
-      tissue.step(bladeFromPose(b.position, b.orientation, 0.06), 1e-3);
+  const std::string warning = tissue.step(bladeFromPose(a.position, a.orientation, 0.06), 1e-3) +
+                              tissue.step(bladeFromPose(b.position, b.orientation, 0.06), 1e-3);
   EXPECT_NE(warning.find("jumped"), std::string::npos);
   tissue.step(std::nullopt, 1e-3);
   EXPECT_EQ(tissue.validate(), "");

@@ -295,7 +295,8 @@ TEST(ReadMesh, StlSurfacesAreFilledWithTets) {
     const MeshData mesh = readMesh(kMeshes + name);
     EXPECT_GT(mesh.T.rows(), 500);
     EXPECT_GT(smallestTetVolume(mesh), 0.0);
-    // Capsule of radius 0.05 m, cylinder 0.2 m long (in metres): a faceted copy is a little smaller.
+    // Capsule of radius 0.05 m, cylinder 0.2 m long (in metres): a faceted copy is a little
+    // smaller.
     const double exact = 1e-3 * (M_PI * 0.25 * 2 + 4.0 / 3.0 * M_PI * 0.125);
     EXPECT_NEAR(totalVolume(mesh), exact, 0.1 * exact);
   }

@@ -43,7 +43,8 @@ Lab skewTet(std::mt19937& rng, const std::array<int, 4>& perm) {
 
 double sumVolume(const Lab& lab, const std::vector<TetVerts>& tets) {
   double s = 0;
-  for (const auto& t : tets) s += signedVolume(lab.pos[t[0]], lab.pos[t[1]], lab.pos[t[2]], lab.pos[t[3]]);
+  for (const auto& t : tets)
+    s += signedVolume(lab.pos[t[0]], lab.pos[t[1]], lab.pos[t[2]], lab.pos[t[3]]);
   return s;
 }
 
@@ -83,7 +84,8 @@ void cutByPhi(Lab* lab, const std::array<double, 4>& phi_local, std::map<int, do
     const double a = phi_local[i], b = phi_local[j];
     if (a * b < 0) {
       const double t = a / (a - b);
-      const int v = lab->add((1 - t) * lab->pos[lab->cut.corner[i]] + t * lab->pos[lab->cut.corner[j]]);
+      const int v =
+          lab->add((1 - t) * lab->pos[lab->cut.corner[i]] + t * lab->pos[lab->cut.corner[j]]);
       lab->cut.edge_point[e] = v;
       (*phi)[v] = 0.0;
     }
@@ -202,7 +204,8 @@ TEST(SplitTable, PartialCutsOfOneTwoAndThreeEdgesInEveryOrientation) {
         if (std::count(before.begin(), before.end(), F2)) F2 = last[1];
       }
       for (int f : {F1, F2}) {
-        const Vec3 a = lab.pos[kTetFace[f][0]], b = lab.pos[kTetFace[f][1]], c = lab.pos[kTetFace[f][2]];
+        const Vec3 a = lab.pos[kTetFace[f][0]], b = lab.pos[kTetFace[f][1]],
+                   c = lab.pos[kTetFace[f][2]];
         const double wa = u(rng), wb = u(rng), wc = u(rng), s = wa + wb + wc;
         lab.cut.face_point[f] = lab.add((wa * a + wb * b + wc * c) / s);
       }
@@ -234,7 +237,8 @@ TEST(SplitTable, UncoveredMasksFallBackToAValidTent) {
     TetSplit split = splitTet(lab.cut, lab.at(), lab.at(), -1);
     ASSERT_EQ(split.kind, SplitKind::kNeedsSteiner);
     const auto& c = lab.cut.corner;
-    const int centroid = lab.add(0.25 * (lab.pos[c[0]] + lab.pos[c[1]] + lab.pos[c[2]] + lab.pos[c[3]]));
+    const int centroid =
+        lab.add(0.25 * (lab.pos[c[0]] + lab.pos[c[1]] + lab.pos[c[2]] + lab.pos[c[3]]));
     split = splitTet(lab.cut, lab.at(), lab.at(), centroid);
     ASSERT_EQ(split.kind, SplitKind::kTent);
     expectFillsTheTet(lab, split);

@@ -36,12 +36,12 @@ struct CutterOptions {
 
 /// The paper's counts and the cutter's own.
 struct CutCounts {
-  int cut_tetrahedra = 0;      ///< tets replaced (#CuT)
-  int created_tetrahedra = 0;  ///< tets they were replaced by (#CrT)
-  double time_ms = 0.0;        ///< time in cutting (t.Repl)
-  int separated_vertices = 0;  ///< vertex copies made to open the cut
-  int lifts = 0;               ///< jumps treated as the blade lifted
-  std::array<int, 7> by_kind{};///< replacements per SplitKind
+  int cut_tetrahedra = 0;        ///< tets replaced (#CuT)
+  int created_tetrahedra = 0;    ///< tets they were replaced by (#CrT)
+  double time_ms = 0.0;          ///< time in cutting (t.Repl)
+  int separated_vertices = 0;    ///< vertex copies made to open the cut
+  int lifts = 0;                 ///< jumps treated as the blade lifted
+  std::array<int, 7> by_kind{};  ///< replacements per SplitKind
 };
 
 class Cutter {
@@ -114,13 +114,14 @@ class Cutter {
   std::optional<BladeSegment> previous_;
   Vec3 last_motion_ = Vec3::Zero();  // the blade's last move, to push a stroke's end ahead
   double frontShift() const { return 0.6 * snap_distance_; }
-  bool stroke_start_ = false;  // no area swept yet in this stroke: the blade's line is front
+  bool stroke_start_ = false;
+  int ticks_since_grid_check_ = 0;  // no area swept yet in this stroke: the blade's line is front
   std::unordered_map<int, Pending> pending_;
   int next_pending_ = 0;
-  std::vector<int> pending_of_;            // per tet slot
-  std::unordered_set<int> on_cut_;         // vertices lying on the cut surface (snapped)
-  std::set<int> deferred_;                 // vertices to split once that keeps a 2-manifold
-  std::set<std::array<int, 3>> marked_;    // cut faces not opened yet (sorted ids)
+  std::vector<int> pending_of_;          // per tet slot
+  std::unordered_set<int> on_cut_;       // vertices lying on the cut surface (snapped)
+  std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
+  std::set<std::array<int, 3>> marked_;  // cut faces not opened yet (sorted ids)
   CutCounts counts_;
 };
 

@@ -17,8 +17,8 @@ class PathError : public std::runtime_error {
 };
 
 struct ToolPose {
-  double t = 0.0;                                        ///< [s]
-  Vec3 position = Vec3::Zero();                          ///< tool origin in the mesh frame [m]
+  double t = 0.0;                ///< [s]
+  Vec3 position = Vec3::Zero();  ///< tool origin in the mesh frame [m]
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  ///< tool to mesh frame
 };
 

@@ -29,10 +29,10 @@ namespace tissue_cut {
 /// A tet as the cut left it. Local numbering follows TetMesh: edges kTetEdge, face f opposite
 /// corner f.
 struct TetCut {
-  TetVerts corner{};                                     ///< global ids, positively oriented
-  std::array<int, 6> edge_point{-1, -1, -1, -1, -1, -1}; ///< global id of the point on each edge
-  std::array<int, 4> face_point{-1, -1, -1, -1};         ///< global id of the point on each face
-  std::array<bool, 4> on_cut{false, false, false, false};///< corner lies on the cut surface
+  TetVerts corner{};                                       ///< global ids, positively oriented
+  std::array<int, 6> edge_point{-1, -1, -1, -1, -1, -1};   ///< global id of the point on each edge
+  std::array<int, 4> face_point{-1, -1, -1, -1};           ///< global id of the point on each face
+  std::array<bool, 4> on_cut{false, false, false, false};  ///< corner lies on the cut surface
 
   int numEdgePoints() const;
   int numFacePoints() const;
@@ -54,8 +54,8 @@ const char* splitKindName(SplitKind kind);
 /// The replacement of one tet.
 struct TetSplit {
   SplitKind kind = SplitKind::kUntouched;
-  std::vector<TetVerts> tets;                  ///< positively oriented (rest and current)
-  std::vector<std::array<int, 3>> cut_faces;   ///< faces on the cut surface, to be separated
+  std::vector<TetVerts> tets;                 ///< positively oriented (rest and current)
+  std::vector<std::array<int, 3>> cut_faces;  ///< faces on the cut surface, to be separated
 };
 
 /// Position of a global vertex id [m].

@@ -11,7 +11,8 @@ namespace tissue_cut {
 
 using Triangle = std::array<Vec3, 3>;
 
-/// The quad swept from `from` to `to` as two triangles (base0, tip0, tip1) and (base0, tip1, base1).
+/// The quad swept from `from` to `to` as two triangles (base0, tip0, tip1) and (base0, tip1,
+/// base1).
 std::array<Triangle, 2> sweptTriangles(const BladeSegment& from, const BladeSegment& to);
 
 /// Area of a triangle [m^2].

@@ -26,9 +26,9 @@ struct MeshReadOptions {
 
 /// A tetrahedral mesh as plain arrays, as read from a file.
 struct MeshData {
-  Eigen::MatrixXd V;  ///< #V by 3 vertex positions [m] (only vertices used by a tet are kept)
-  Eigen::MatrixXi T;  ///< #T by 4 vertex ids into V, positively oriented
-  int reoriented = 0; ///< tets that were negatively oriented in the file and were flipped
+  Eigen::MatrixXd V;   ///< #V by 3 vertex positions [m] (only vertices used by a tet are kept)
+  Eigen::MatrixXi T;   ///< #T by 4 vertex ids into V, positively oriented
+  int reoriented = 0;  ///< tets that were negatively oriented in the file and were flipped
 };
 
 /// Reads the tetrahedra of a mesh file, chosen by extension: .msh, .node or .ele (TetGen pair),

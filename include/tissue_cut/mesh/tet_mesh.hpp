@@ -37,7 +37,8 @@ struct ChangeRecord {
   std::vector<int> added_vertices;
   std::vector<std::vector<VertexParent>> vertex_parents;  ///< parallel to added_vertices
   std::vector<int> removed_vertices;
-  std::vector<std::pair<int, int>> merged_vertices;  ///< (removed, survivor), also in removed_vertices
+  std::vector<std::pair<int, int>>
+      merged_vertices;  ///< (removed, survivor), also in removed_vertices
 
   bool empty() const;
   /// Composes `later`, which happened after this record, into one net change: what was added

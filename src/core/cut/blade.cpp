@@ -16,8 +16,8 @@ std::string checkPose(const Vec3& origin, const Eigen::Quaterniond& q) {
   if (!q.coeffs().allFinite()) return "orientation is not finite";
   const double n = q.norm();
   if (n < 1e-6) return "orientation quaternion is zero";
-  if (std::abs(n - 1.0) > 0.1) return "orientation quaternion is not normalised (norm " +
-                                       std::to_string(n) + ")";
+  if (std::abs(n - 1.0) > 0.1)
+    return "orientation quaternion is not normalised (norm " + std::to_string(n) + ")";
   return "";
 }
 

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cmath>
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -130,7 +130,8 @@ bool Cutter::coarseAround(const std::vector<int>& verts, std::vector<Coarse>* ou
     }
     if (!seen.insert(pid).second) continue;
     if (verts.size() == 2 && p.cut.edge_point[tetEdgeIndex(local[0], local[1])] >= 0) return false;
-    if (verts.size() == 3 && p.cut.face_point[6 - local[0] - local[1] - local[2]] >= 0) return false;
+    if (verts.size() == 3 && p.cut.face_point[6 - local[0] - local[1] - local[2]] >= 0)
+      return false;
     out->push_back({pid, -1});
   }
   return !out->empty();
@@ -232,7 +233,8 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
 void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris) {
   if (on_cut_.count(v)) return;
   const Vec3& x = mesh_->current(v);
-  if (!pointNearTriangle(x, tris[0], snap_distance_) && !pointNearTriangle(x, tris[1], snap_distance_))
+  if (!pointNearTriangle(x, tris[0], snap_distance_) &&
+      !pointNearTriangle(x, tris[1], snap_distance_))
     return;
   // A vertex next to a cut point already made stays off the cut: the point took its place.
   for (int t : mesh_->vertexTets(v)) {
@@ -286,7 +288,6 @@ void Cutter::subdivide(int pid, ChangeRecord* change) {
   const std::vector<int> old = p.pieces;
   replace(old, split.tets, change, nullptr, &ids);
   setPieces(pid, ids);
-
 }
 
 void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) {
@@ -331,9 +332,9 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
   std::vector<int> touched;
   for (int pid : ids) {
     const TetVerts& c = pending_[pid].cut.corner;
-    if (blade && segmentMeetsTet(blade->base, blade->tip, mesh_->current(c[0]),
-                                 mesh_->current(c[1]), mesh_->current(c[2]),
-                                 mesh_->current(c[3]), 1e-3 * mean_edge_))
+    if (blade &&
+        segmentMeetsTet(blade->base, blade->tip, mesh_->current(c[0]), mesh_->current(c[1]),
+                        mesh_->current(c[2]), mesh_->current(c[3]), 1e-3 * mean_edge_))
       continue;
     finalize(pid, change, &touched);
   }
@@ -642,7 +643,12 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
 std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
   const auto start = std::chrono::steady_clock::now();
   std::string warning;
-  if (blade && grid_.needsRebuild(*mesh_)) grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
+  // Whether the tissue drifted past the grid's margin is checked on one tick in 64 only (a scan
+  // of all vertices): between checks the margin (one mean edge) absorbs the motion.
+  if (blade && ++ticks_since_grid_check_ >= 64) {
+    ticks_since_grid_check_ = 0;
+    if (grid_.needsRebuild(*mesh_)) grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
+  }
   auto endStroke = [&] {
     crossFront({{previous_->base, previous_->tip}}, last_motion_, change);
     finalizeLeft(std::nullopt, change);
@@ -656,8 +662,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   } else if ((blade->base - previous_->base).norm() > options_.max_jump ||
              (blade->tip - previous_->tip).norm() > options_.max_jump) {
     std::ostringstream msg;
-    msg << "the blade jumped " << std::max((blade->base - previous_->base).norm(),
-                                           (blade->tip - previous_->tip).norm())
+    msg << "the blade jumped "
+        << std::max((blade->base - previous_->base).norm(), (blade->tip - previous_->tip).norm())
         << " m in one tick (over cut/max_jump = " << options_.max_jump
         << " m): treated as lifted and put down again, no cut across the gap";
     warning = msg.str();
@@ -690,7 +696,8 @@ std::string Cutter::validate() const {
       if (t >= mesh_->tetSlots() || !mesh_->tetAlive(t))
         return "pending tet " + std::to_string(pid) + " has a dead piece " + std::to_string(t);
       if (pending_of_[t] != pid)
-        return "piece " + std::to_string(t) + " does not know its pending tet " + std::to_string(pid);
+        return "piece " + std::to_string(t) + " does not know its pending tet " +
+               std::to_string(pid);
       sum += mesh_->restVolume(t);
     }
     const auto& c = p.cut.corner;
@@ -700,8 +707,8 @@ std::string Cutter::validate() const {
       return "pieces of pending tet " + std::to_string(pid) + " do not fill it";
   }
   for (int t = 0; t < static_cast<int>(pending_of_.size()); ++t)
-    if (pending_of_[t] >= 0 && (t >= mesh_->tetSlots() || !mesh_->tetAlive(t) ||
-                                !pending_.count(pending_of_[t])))
+    if (pending_of_[t] >= 0 &&
+        (t >= mesh_->tetSlots() || !mesh_->tetAlive(t) || !pending_.count(pending_of_[t])))
       return "tet " + std::to_string(t) + " is marked pending but is not";
   return "";
 }

@@ -61,8 +61,7 @@ ScalpelPath ScalpelPath::read(const std::string& path) {
     p.orientation = Eigen::Quaterniond(v[7], v[4], v[5], v[6]);
     if (p.orientation.norm() < 1e-9) throw PathError(where() + "the quaternion is zero");
     p.orientation.normalize();
-    if (!poses.empty() && p.t < poses.back().t)
-      throw PathError(where() + "time goes backwards");
+    if (!poses.empty() && p.t < poses.back().t) throw PathError(where() + "time goes backwards");
     poses.push_back(p);
   }
   if (!header) throw PathError(path + ": empty path file (no header)");

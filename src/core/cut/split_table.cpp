@@ -105,8 +105,8 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
       const int f = free_corners[0];
       out->kind = SplitKind::kAlongFace;
       out->tets = {cut.corner};
-      out->cut_faces = {{cut.corner[kTetFace[f][0]], cut.corner[kTetFace[f][1]],
-                         cut.corner[kTetFace[f][2]]}};
+      out->cut_faces = {
+          {cut.corner[kTetFace[f][0]], cut.corner[kTetFace[f][1]], cut.corner[kTetFace[f][2]]}};
     } else {
       out->kind = SplitKind::kUntouched;
       out->tets = {cut.corner};
@@ -173,8 +173,7 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
       if (lo < 0 && hi > 0) return false;  // a face triangle across the cut: not a plane cut
       if ((s > 0 && hi > 0) || (s < 0 && lo < 0)) region.push_back(t);
     }
-    for (const Tri& t : cut_tris)
-      region.push_back(s > 0 ? t : Tri{t[0], t[2], t[1]});
+    for (const Tri& t : cut_tris) region.push_back(s > 0 ? t : Tri{t[0], t[2], t[1]});
     int apex = region.front()[0];
     for (const Tri& t : region)
       for (int v : t) apex = std::min(apex, v);
@@ -297,31 +296,39 @@ bool coneFromAPoint(const TetCut& cut, const Checker& check, TetSplit* out) {
 }  // namespace
 
 int TetCut::numEdgePoints() const {
-  return static_cast<int>(std::count_if(edge_point.begin(), edge_point.end(),
-                                        [](int v) { return v >= 0; }));
+  return static_cast<int>(
+      std::count_if(edge_point.begin(), edge_point.end(), [](int v) { return v >= 0; }));
 }
 
 int TetCut::numFacePoints() const {
-  return static_cast<int>(std::count_if(face_point.begin(), face_point.end(),
-                                        [](int v) { return v >= 0; }));
+  return static_cast<int>(
+      std::count_if(face_point.begin(), face_point.end(), [](int v) { return v >= 0; }));
 }
 
 const char* splitKindName(SplitKind kind) {
   switch (kind) {
-    case SplitKind::kUntouched: return "untouched";
-    case SplitKind::kAlongFace: return "along-face";
-    case SplitKind::kComplete: return "complete";
-    case SplitKind::kPartial: return "partial";
-    case SplitKind::kCone: return "cone";
-    case SplitKind::kTent: return "tent";
-    case SplitKind::kNeedsSteiner: return "needs-steiner";
+    case SplitKind::kUntouched:
+      return "untouched";
+    case SplitKind::kAlongFace:
+      return "along-face";
+    case SplitKind::kComplete:
+      return "complete";
+    case SplitKind::kPartial:
+      return "partial";
+    case SplitKind::kCone:
+      return "cone";
+    case SplitKind::kTent:
+      return "tent";
+    case SplitKind::kNeedsSteiner:
+      return "needs-steiner";
   }
   return "?";
 }
 
 int tetEdgeIndex(int i, int j) {
   for (int e = 0; e < 6; ++e)
-    if ((kTetEdge[e][0] == i && kTetEdge[e][1] == j) || (kTetEdge[e][0] == j && kTetEdge[e][1] == i))
+    if ((kTetEdge[e][0] == i && kTetEdge[e][1] == j) ||
+        (kTetEdge[e][0] == j && kTetEdge[e][1] == i))
       return e;
   return -1;
 }
@@ -338,7 +345,8 @@ std::vector<std::array<int, 3>> faceTriangles(const TetCut& cut, int f) {
     std::vector<int> ring;
     for (int v : {a, mC, b, mA, c, mB})
       if (v >= 0) ring.push_back(v);
-    for (std::size_t i = 0; i < ring.size(); ++i) out.push_back({ring[i], ring[(i + 1) % ring.size()], fp});
+    for (std::size_t i = 0; i < ring.size(); ++i)
+      out.push_back({ring[i], ring[(i + 1) % ring.size()], fp});
     return out;
   }
   const int k = (mA >= 0) + (mB >= 0) + (mC >= 0);

@@ -46,8 +46,7 @@ double restQuality(const TetMesh& mesh, int t) {
 
 double currentQuality(const TetMesh& mesh, int t) {
   const TetVerts& v = mesh.tet(t);
-  return tetQuality(mesh.current(v[0]), mesh.current(v[1]), mesh.current(v[2]),
-                    mesh.current(v[3]));
+  return tetQuality(mesh.current(v[0]), mesh.current(v[1]), mesh.current(v[2]), mesh.current(v[3]));
 }
 
 std::array<int, 2> shortestRestEdge(const TetMesh& mesh, int t) {

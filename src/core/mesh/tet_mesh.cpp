@@ -381,7 +381,8 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
   if (record) {
     record->removed_tets.insert(record->removed_tets.end(), remove.begin(), remove.end());
     record->added_tets.insert(record->added_tets.end(), ids.begin(), ids.end());
-    for (std::size_t i = 0; i < ids.size(); ++i) record->added_from.push_back(from ? (*from)[i] : -1);
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      record->added_from.push_back(from ? (*from)[i] : -1);
   }
   return ids;
 }
@@ -437,7 +438,8 @@ std::string TetMesh::validate() const {
       for (int u : vertex_tets_[a])
         if (u != t && contains(tets_[u], b) && contains(tets_[u], c)) ++sharing;
       if (sharing > 1)
-        return "face " + std::to_string(f) + " of " + tetName(t) + " is shared by more than two tets";
+        return "face " + std::to_string(f) + " of " + tetName(t) +
+               " is shared by more than two tets";
       const int u = neighbors_[t][f];
       if (u < 0) {
         if (sharing != 0)
@@ -473,8 +475,8 @@ std::string TetMesh::validate() const {
     if (vertex_tets_[v].empty()) return "vertex " + std::to_string(v) + " has no tetrahedron";
     for (int t : vertex_tets_[v])
       if (t < 0 || t >= tetSlots() || !tet_alive_[t] || !contains(tets_[t], v))
-        return "incidence list of vertex " + std::to_string(v) + " names tet " +
-               std::to_string(t) + " that does not hold it";
+        return "incidence list of vertex " + std::to_string(v) + " names tet " + std::to_string(t) +
+               " that does not hold it";
   }
   if (live_vertices != num_vertices_) return "live vertex count is out of date";
 
