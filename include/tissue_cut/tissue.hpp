@@ -10,6 +10,7 @@
 #include "tissue_cut/cut/cutter.hpp"
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
+#include "tissue_cut/physics/mass_spring.hpp"
 #include "tissue_cut/statistics.hpp"
 
 namespace tissue_cut {
@@ -17,6 +18,9 @@ namespace tissue_cut {
 /// The mesh the configuration names: config.mesh read from file (limited to
 /// config.mesh_max_tets), or the built-in block. Throws MeshIOError or std::invalid_argument.
 MeshData loadTissueMesh(const Config& config);
+
+/// The physics parameters a configuration gives.
+MassSpringParams massSpringParams(const Config& config);
 
 class Tissue {
  public:
@@ -34,6 +38,7 @@ class Tissue {
   /// TetMesh::validate() plus the cutter's pending state; "" when valid.
   std::string validate() const;
   const Cutter& cutter() const { return *cutter_; }
+  const MassSpring& physics() const { return *physics_; }
 
   /// Back to the mesh given at construction, uncut and at rest.
   void reset();
@@ -55,6 +60,7 @@ class Tissue {
   MeshData initial_;
   TetMesh mesh_;
   std::unique_ptr<Cutter> cutter_;
+  std::unique_ptr<MassSpring> physics_;
   std::vector<unsigned char> cut_region_;
   Statistics counters_;  // the running counts (cut, collapse, physics)
   TickTimes tick_times_;

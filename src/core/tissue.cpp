@@ -18,6 +18,19 @@ MeshData loadTissueMesh(const Config& config) {
   return readMesh(config.mesh, options);
 }
 
+MassSpringParams massSpringParams(const Config& config) {
+  MassSpringParams p;
+  p.density = config.physics.density;
+  p.young_modulus = config.physics.young_modulus;
+  p.damping = config.physics.damping;
+  p.gravity = config.physics.gravity;
+  p.implicit = config.physics.integrator == "implicit";
+  p.fixed_axis = config.fixedAxisIndex();
+  p.fixed_max_side = config.physics.fixed_side == "max";
+  p.fixed_band = config.physics.fixed_band;
+  return p;
+}
+
 Tissue::Tissue(const Config& config, const MeshData& mesh) : config_(config), initial_(mesh) {
   const std::string bad = config_.check();
   if (!bad.empty()) throw ConfigError(bad);
@@ -31,6 +44,7 @@ void Tissue::reset() {
   CutterOptions cut;
   cut.max_jump = config_.cut.max_jump;
   cutter_ = std::make_unique<Cutter>(&mesh_, cut);
+  physics_ = std::make_unique<MassSpring>(&mesh_, massSpringParams(config_));
   cut_region_.assign(mesh_.tetSlots(), 0);
   counters_ = Statistics{};
   tick_times_.clear();
@@ -54,10 +68,14 @@ void Tissue::applyChange(const ChangeRecord& change) {
 }
 
 std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
-  (void)dt;
   ChangeRecord change;
   std::string warning = cutter_->step(blade, &change);
   applyChange(change);
+  physics_->follow(change);
+  if (config_.physics.enabled) {
+    const std::string unstable = physics_->step(dt);
+    if (!unstable.empty()) warning += (warning.empty() ? "" : "; ") + unstable;
+  }
   return warning;
 }
 
@@ -72,6 +90,9 @@ Statistics Tissue::statistics() const {
   s.cut.cut_tetrahedra = cutter_->counts().cut_tetrahedra;
   s.cut.created_tetrahedra = cutter_->counts().created_tetrahedra;
   s.cut.time_ms = cutter_->counts().time_ms;
+  s.physics.mass_total = physics_->totalMass();
+  s.physics.kinetic_energy = physics_->kineticEnergy();
+  s.physics.instabilities = physics_->instabilities();
   s.vertices = mesh_.numVertices();
   s.tetrahedra = mesh_.numTets();
   s.surface_triangles = mesh_.numBoundaryFaces();

@@ -1,0 +1,160 @@
+// Mass-spring physics: statics that follow the material, conservation through topology changes,
+// stability of the implicit integrator, and honest failure of the explicit one.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "tissue_cut/cut/scalpel_path.hpp"
+#include "tissue_cut/mesh/block.hpp"
+#include "tissue_cut/physics/mass_spring.hpp"
+#include "tissue_cut/tissue.hpp"
+
+using namespace tissue_cut;
+
+namespace {
+
+// The block as a cantilever: fixed at x = -0.05, free end at x = +0.05, gravity along -z.
+MassSpringParams cantilever(double young) {
+  MassSpringParams p;
+  p.young_modulus = young;
+  p.damping = 10.0;
+  p.fixed_axis = 0;
+  p.fixed_band = 1e-4;
+  return p;
+}
+
+int freeEndVertex(const TetMesh& mesh) {
+  for (int v = 0; v < mesh.vertexSlots(); ++v) {
+    const Vec3& r = mesh.rest(v);
+    if (std::abs(r.x() - 0.05) < 1e-9 && std::abs(r.y()) < 1e-9 && std::abs(r.z() - 0.03) < 1e-9)
+      return v;
+  }
+  return -1;
+}
+
+struct Settled {
+  double sag;             // vertical displacement of the free end's top centre [m]
+  double kinetic_energy;  // at the end [J]
+};
+
+Settled settle(double young, double cell, double dt, double seconds) {
+  BlockSpec spec;
+  spec.cell_size = cell;
+  const MeshData block = makeBlock(spec);
+  TetMesh mesh(block.V, block.T);
+  MassSpring physics(&mesh, cantilever(young));
+  const int tip = freeEndVertex(mesh);
+  EXPECT_GE(tip, 0);
+  for (int k = 0; k < static_cast<int>(std::round(seconds / dt)); ++k)
+    EXPECT_EQ(physics.step(dt), "");
+  return {mesh.current(tip).z() - mesh.rest(tip).z(), physics.kineticEnergy()};
+}
+
+}  // namespace
+
+TEST(Physics, CantileverComesToRestAndHalvesItsSagWhenEDoubles) {
+  const Settled soft = settle(1e5, 0.006, 2e-3, 3.0);
+  const Settled stiff = settle(2e5, 0.006, 2e-3, 3.0);
+  EXPECT_LT(soft.sag, -1e-3);  // it does sag, downwards
+  EXPECT_LT(soft.kinetic_energy, 1e-9);
+  EXPECT_LT(stiff.kinetic_energy, 1e-9);
+  EXPECT_NEAR(stiff.sag / soft.sag, 0.5, 0.05);
+}
+
+TEST(Physics, SagFollowsTheMaterialNotTheMesh) {
+  // The same cantilever with cells of 1 cm and of 5 mm (8x the tets).
+  const Settled coarse = settle(1e5, 0.01, 5e-3, 3.0);
+  const Settled fine = settle(1e5, 0.005, 5e-3, 3.0);
+  EXPECT_NEAR(coarse.sag / fine.sag, 1.0, 0.15);
+}
+
+TEST(Physics, MassIsDensityTimesRestVolumeThroughACut) {
+  Config config;
+  config.collapse.enabled = false;
+  config.cut.blade_length = 0.06;
+  Tissue tissue(config, makeBlock());
+  const ScalpelPath path({ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
+                          ToolPose{0.4, Vec3(0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()}});
+  for (int k = 0; k <= 400; ++k) {
+    const ToolPose p = path.at(k * 1e-3);
+    tissue.step(bladeFromPose(p.position, p.orientation, 0.06), 1e-3);
+  }
+  tissue.step(std::nullopt, 1e-3);
+  ASSERT_EQ(tissue.validate(), "");
+  const Statistics s = tissue.statistics();
+  EXPECT_GT(s.cut.cut_tetrahedra, 50);
+  EXPECT_NEAR(s.physics.mass_total, config.physics.density * s.volume_rest,
+              1e-12 * s.physics.mass_total);
+  EXPECT_NEAR(s.physics.mass_total, config.physics.density * 0.1 * 0.06 * 0.03, 1e-12);
+}
+
+TEST(Physics, FreeBodyKeepsItsMomentum) {
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  MassSpringParams p;
+  p.gravity.setZero();
+  p.damping = 0.0;
+  p.fixed_band = -1.0;  // nothing fixed
+  p.cg_tolerance = 1e-10;
+  MassSpring physics(&mesh, p);
+  // Drift plus a squeeze of one end, so that springs work against each other.
+  for (int v = 0; v < mesh.vertexSlots(); ++v) {
+    mesh.velocity(v) = Vec3(0.01, -0.02, 0.005);
+    if (mesh.rest(v).x() > 0.03) mesh.current(v).x() -= 0.002;
+  }
+  auto momentum = [&] {
+    Vec3 m = Vec3::Zero();
+    for (int v = 0; v < mesh.vertexSlots(); ++v) m += physics.mass(v) * mesh.velocity(v);
+    return m;
+  };
+  const Vec3 before = momentum();
+  for (int k = 0; k < 200; ++k) ASSERT_EQ(physics.step(1e-3), "");
+  EXPECT_LT((momentum() - before).norm(), 1e-6 * before.norm());
+}
+
+TEST(Physics, HundredTimesStifferStaysBoundedImplicitly) {
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  MassSpring physics(&mesh, cantilever(1e7));
+  for (int k = 0; k < 300; ++k) ASSERT_EQ(physics.step(1e-3), "");
+  EXPECT_EQ(physics.instabilities(), 0);
+  for (int v = 0; v < mesh.vertexSlots(); ++v) {
+    ASSERT_TRUE(mesh.current(v).allFinite());
+    EXPECT_LT((mesh.current(v) - mesh.rest(v)).norm(), 1e-3);
+  }
+}
+
+TEST(Physics, ExplicitEulerIsReportedUnstableNotNaN) {
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  MassSpringParams p = cantilever(1e7);
+  p.implicit = false;
+  MassSpring physics(&mesh, p);
+  std::string warning;
+  for (int k = 0; k < 300; ++k) warning = physics.step(1e-3);
+  EXPECT_GT(physics.instabilities(), 0);
+  EXPECT_NE(warning.find("unstable"), std::string::npos);
+  for (int v = 0; v < mesh.vertexSlots(); ++v) ASSERT_TRUE(mesh.current(v).allFinite());
+}
+
+TEST(Physics, NewVerticesBetweenFixedOnesAreFixed) {
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  MassSpringParams p = cantilever(1e5);
+  MassSpring physics(&mesh, p);
+  // An edge on the fixed face (x = -0.05) and one leaving it.
+  int a = -1, b = -1, c = -1;
+  for (const auto& [u, w] : mesh.edges()) {
+    const bool fu = physics.fixed(u), fw = physics.fixed(w);
+    if (fu && fw && a < 0) a = u, b = w;
+    if (fu != fw && c < 0) c = fu ? w : u;
+  }
+  ASSERT_GE(a, 0);
+  ASSERT_GE(c, 0);
+  ChangeRecord change;
+  const int between_fixed = mesh.addVertex({{a, 0.5}, {b, 0.5}}, &change);
+  const int half_free = mesh.addVertex({{a, 0.5}, {c, 0.5}}, &change);
+  physics.follow(change);
+  EXPECT_TRUE(physics.fixed(between_fixed));
+  EXPECT_FALSE(physics.fixed(half_free));
+}
