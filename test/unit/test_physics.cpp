@@ -73,8 +73,9 @@ TEST(Physics, MassIsDensityTimesRestVolumeThroughACut) {
   config.collapse.enabled = false;
   config.cut.blade_length = 0.06;
   Tissue tissue(config, makeBlock());
-  const ScalpelPath path({ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
-                          ToolPose{0.4, Vec3(0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()}});
+  const ScalpelPath path(
+      {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
+       ToolPose{0.4, Vec3(0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()}});
   for (int k = 0; k <= 400; ++k) {
     const ToolPose p = path.at(k * 1e-3);
     tissue.step(bladeFromPose(p.position, p.orientation, 0.06), 1e-3);

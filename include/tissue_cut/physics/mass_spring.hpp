@@ -38,8 +38,8 @@ class MassSpring {
   /// One step of dt [s]. Returns a warning when the step was unstable (rolled back and damped).
   std::string step(double dt);
 
-  double totalMass() const;       ///< [kg]
-  double kineticEnergy() const;   ///< [J]
+  double totalMass() const;      ///< [kg]
+  double kineticEnergy() const;  ///< [J]
   int instabilities() const { return instabilities_; }
   int lastIterations() const { return last_iterations_; }
   int numSprings() const { return static_cast<int>(springs_.size()); }
@@ -70,9 +70,9 @@ class MassSpring {
   std::vector<unsigned char> fixed_;
   std::vector<Spring> springs_;
   std::unordered_map<long long, int> spring_of_;  // edge key -> index
-  std::vector<Vec3> warm_;                         // last velocity change, per vertex
-  std::vector<TetVerts> tet_copy_;                 // each live tet's vertices, from the records
-  std::vector<Eigen::Matrix3d> blocks_;            // per-spring stiffness blocks of this step
+  std::vector<Vec3> warm_;                        // last velocity change, per vertex
+  std::vector<TetVerts> tet_copy_;                // each live tet's vertices, from the records
+  std::vector<Eigen::Matrix3d> blocks_;           // per-spring stiffness blocks of this step
   int instabilities_ = 0, last_iterations_ = 0;
 };
 

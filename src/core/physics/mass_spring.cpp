@@ -196,8 +196,7 @@ bool MassSpring::stepImplicit(double dt) {
   blocks_.resize(springs_.size());
   for (std::size_t i = 0; i < springs_.size(); ++i) {
     const Spring& s = springs_[i];
-    blocks_[i] = springBlock(mesh_->current(s.b) - mesh_->current(s.a), s.rest_length,
-                             s.stiffness);
+    blocks_[i] = springBlock(mesh_->current(s.b) - mesh_->current(s.a), s.rest_length, s.stiffness);
   }
   // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a).
   std::vector<Vec3> b, r, z, p, ap, dv = warm_;
