@@ -96,17 +96,25 @@ const std::array<int, 4> kPerms[] = {{0, 1, 2, 3}, {3, 2, 1, 0}, {1, 3, 0, 2}, {
 
 }  // namespace
 
-TEST(SplitTable, FaceRuleSplitsAQuadThroughItsSmallestId) {
-  TetCut cut;
-  cut.corner = {10, 11, 12, 13};
-  // Points on edges (1,2) and (1,3) of face 0 = (1,2,3): they share corner 1.
-  cut.edge_point[tetEdgeIndex(1, 2)] = 5;
-  cut.edge_point[tetEdgeIndex(1, 3)] = 20;
-  auto tris = faceTriangles(cut, 0);
-  ASSERT_EQ(tris.size(), 3u);
-  int through5 = 0;
-  for (const auto& t : tris) through5 += std::count(t.begin(), t.end(), 5);
-  EXPECT_EQ(through5, 3) << "the quad diagonal must run through id 5";
+TEST(SplitTable, FaceRuleSplitsAsTheOlderPointDidFirst) {
+  // Points on edges (1,2) and (1,3) of face 0 = (1,2,3): they share corner 1. Ids grow with
+  // creation, so the older point is the smaller id; alone it split the face towards the corner
+  // opposite its edge, and that diagonal stays.
+  for (const auto& [older, newer] : {std::pair<int, int>{5, 20}, std::pair<int, int>{20, 5}}) {
+    TetCut cut;
+    cut.corner = {10, 11, 12, 13};
+    cut.edge_point[tetEdgeIndex(1, 2)] = older;  // opposite corner 3 (id 13) on this face
+    cut.edge_point[tetEdgeIndex(1, 3)] = newer;  // opposite corner 2 (id 12)
+    const auto tris = faceTriangles(cut, 0);
+    ASSERT_EQ(tris.size(), 3u);
+    const int oldest = std::min(older, newer);
+    const int opposite = oldest == older ? 13 : 12;
+    bool found = false;
+    for (const auto& t : tris)
+      found |= std::count(t.begin(), t.end(), oldest) && std::count(t.begin(), t.end(), opposite) &&
+               !std::count(t.begin(), t.end(), std::max(older, newer));
+    EXPECT_TRUE(found) << "no triangle on the diagonal " << oldest << "-" << opposite;
+  }
 }
 
 TEST(SplitTable, CompleteCutsInEveryOrientationAndSnapping) {

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <optional>
 #include <set>
 #include <string>
@@ -70,6 +71,9 @@ class Cutter {
   /// Resets all cut state (after the mesh was replaced).
   void reset();
 
+  /// Called with every tet replaced and how (for diagnostics and tests).
+  std::function<void(const TetCut&, const TetSplit&)> on_split;
+
  private:
   struct Pending {
     TetCut cut;
@@ -91,7 +95,7 @@ class Cutter {
   bool coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const;
   int makePending(int tet);
   bool faceOnBoundary(const Coarse& c, const std::array<int, 3>& face) const;
-  bool conforming(const std::vector<Coarse>& around) const;
+  bool conforming(const std::vector<Coarse>& around, const std::vector<int>& verts) const;
   void registerEdgePoint(int a, int b, double s, ChangeRecord* change);
   void registerFacePoint(const std::array<int, 3>& face, const Vec3& weights, ChangeRecord* change);
   void trySnap(int v, const std::array<Triangle, 2>& tris);

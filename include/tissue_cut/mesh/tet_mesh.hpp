@@ -47,8 +47,8 @@ struct ChangeRecord {
 };
 
 /// A tetrahedral mesh with incidence and adjacency kept up to date under every change.
-/// Vertex and tet ids are slots: a removed slot is dead until a later change reuses it, and both
-/// events are announced in that change's record.
+/// Tet ids are slots: a removed slot is dead until a later change reuses it, and both events are
+/// announced in that change's record. Vertex ids are never reused, so they grow with creation.
 class TetMesh {
  public:
   TetMesh() = default;
@@ -136,7 +136,7 @@ class TetMesh {
   std::vector<TetVerts> tets_;
   std::vector<std::array<int, 4>> neighbors_;
   std::vector<unsigned char> tet_alive_;
-  std::vector<int> free_tets_, free_vertices_;
+  std::vector<int> free_tets_;
   int num_vertices_ = 0, num_tets_ = 0, num_boundary_faces_ = 0, reoriented_ = 0;
 };
 

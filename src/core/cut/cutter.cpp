@@ -147,10 +147,12 @@ int Cutter::makePending(int tet) {
   return pid;
 }
 
-bool Cutter::conforming(const std::vector<Coarse>& around) const {
+bool Cutter::conforming(const std::vector<Coarse>& around, const std::vector<int>& verts) const {
   // Around one edge or face, a tet the blade left and that is cut again may have as a corner a
-  // point that is still only on an edge or face of a pending neighbour: their shared faces no
-  // longer match one to one, and a new point there could not be placed alike on both sides.
+  // point that is still only on an edge or face of a pending neighbour: there the neighbour's
+  // face is already split more finely on the other side. A second point on such a face is
+  // placed alike on both sides (the face rule splits it as the older point did first); a face
+  // point, or a third point, could not be, so that crossing is ignored.
   std::unordered_set<int> points;
   for (const Coarse& c : around) {
     if (c.pending < 0) continue;
@@ -160,16 +162,31 @@ bool Cutter::conforming(const std::vector<Coarse>& around) const {
     for (int v : cut.face_point)
       if (v >= 0) points.insert(v);
   }
+  bool finer = false;
   for (const Coarse& c : around)
-    for (int v : cornersOf(c))
-      if (points.count(v)) return false;
+    for (int v : cornersOf(c)) finer = finer || points.count(v) > 0;
+  if (!finer) return true;
+  if (verts.size() != 2) return false;
+  for (const Coarse& c : around) {
+    if (c.pending < 0) continue;
+    const TetCut& cut = pending_.at(c.pending).cut;
+    const int i = localIndex(cut.corner, verts[0]), j = localIndex(cut.corner, verts[1]);
+    for (int f = 0; f < 4; ++f) {
+      if (f == i || f == j) continue;  // the two faces holding edge ij
+      if (cut.face_point[f] >= 0) return false;
+      int on_face = 0;
+      for (int e = 0; e < 6; ++e)
+        if (kTetEdge[e][0] != f && kTetEdge[e][1] != f && cut.edge_point[e] >= 0) ++on_face;
+      if (on_face >= 2) return false;
+    }
+  }
   return true;
 }
 
 void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
   std::vector<Coarse> around;
   if (!coarseAround({a, b}, &around)) return;  // already cut here, or inside a pending tet
-  if (!conforming(around)) return;
+  if (!conforming(around, {a, b})) return;
   // A point nearer a corner than this would only make a needle: keep it a little inside.
   s = std::clamp(s, 0.05, 0.95);
   const int v = mesh_->addVertex({{a, 1.0 - s}, {b, s}}, change);
@@ -215,7 +232,7 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
   // Both sides must take the point, or neither: a side already cut and replaced (its face split
   // into smaller faces) cannot, so the crossing is ignored there.
   if (around.size() == 1 && !faceOnBoundary(around[0], face)) return;
-  if (!conforming(around)) return;
+  if (!conforming(around, {face[0], face[1], face[2]})) return;
   // Keep the point off the face's edges: a front through an edge lands just beside it.
   Vec3 w = weights.cwiseMax(0.05);
   w /= w.sum();
@@ -300,6 +317,7 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
     split = splitTet(p.cut, rest, cur, p.steiner);
   }
   ++counts_.by_kind[static_cast<int>(split.kind)];
+  if (on_split) on_split(p.cut, split);
   for (const auto& f : split.cut_faces) {
     marked_.insert(sortedFace(f[0], f[1], f[2]));
     touched->insert(touched->end(), f.begin(), f.end());

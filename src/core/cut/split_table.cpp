@@ -60,6 +60,22 @@ struct Checker {
   }
 };
 
+// Every tet positive (rest, and current unless the tet is inverted there already): the test for
+// one side of a cut, which is only part of the tet.
+bool regionValid(const Checker& check, const std::vector<TetVerts>& tets) {
+  for (const TetVerts& t : tets) {
+    const double vr =
+        signedVolume(check.rest(t[0]), check.rest(t[1]), check.rest(t[2]), check.rest(t[3]));
+    if (!(vr > 1e-12 * check.rest_volume)) return false;
+    if (check.current_volume > 0) {
+      const double vc = signedVolume(check.current(t[0]), check.current(t[1]), check.current(t[2]),
+                                     check.current(t[3]));
+      if (!(vc > 1e-12 * check.current_volume)) return false;
+    }
+  }
+  return true;
+}
+
 std::vector<Tri> allFaceTriangles(const TetCut& cut) {
   std::vector<Tri> out;
   for (int f = 0; f < 4; ++f) {
@@ -127,11 +143,13 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
       polygon.push_back(cut.edge_point[e]);
       polygon_edges.push_back(e);
     }
-  std::vector<Tri> cut_tris;
+  // The cut polygon (a triangle, or a quad with either diagonal: the one that lets both sides be
+  // coned is taken), then each side coned from the first of its vertices that gives only valid
+  // tets (the smallest id, when the quad diagonals run through it as in Dompierre et al.).
+  std::vector<std::vector<Tri>> cut_options;
   if (polygon.size() == 3) {
-    cut_tris.push_back({polygon[0], polygon[1], polygon[2]});
+    cut_options.push_back({{polygon[0], polygon[1], polygon[2]}});
   } else if (polygon.size() == 4 && polygon_edges.size() == 4) {
-    // Order the quad: consecutive cut points share a face.
     std::vector<int> order{0};
     std::vector<bool> used(4, false);
     used[0] = true;
@@ -146,44 +164,60 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
     int q[4];
     for (int k = 0; k < 4; ++k) q[k] = polygon[order[k]];
     const int m = static_cast<int>(std::min_element(q, q + 4) - q);
-    cut_tris.push_back({q[m], q[(m + 1) % 4], q[(m + 2) % 4]});
-    cut_tris.push_back({q[m], q[(m + 2) % 4], q[(m + 3) % 4]});
+    for (int shift : {m, (m + 1) % 4})
+      cut_options.push_back({{q[shift], q[(shift + 1) % 4], q[(shift + 2) % 4]},
+                             {q[shift], q[(shift + 2) % 4], q[(shift + 3) % 4]}});
   } else {
     return false;
   }
-  // Orient the cut triangles outward from the + side: a + corner must see them positively.
   int plus_corner = -1;
   for (int c = 0; c < 4; ++c)
     if (side[c] > 0) plus_corner = cut.corner[c];
-  for (Tri& t : cut_tris)
-    if (signedVolume(check.rest(plus_corner), check.rest(t[0]), check.rest(t[1]),
-                     check.rest(t[2])) < 0)
-      std::swap(t[1], t[2]);
-
-  TetSplit split;
-  split.kind = SplitKind::kComplete;
-  for (int s : {1, -1}) {
-    std::vector<Tri> region;
-    for (const Tri& t : allFaceTriangles(cut)) {
-      int lo = 1, hi = -1;
-      for (int v : t) {
-        lo = std::min(lo, side_of[v]);
-        hi = std::max(hi, side_of[v]);
+  const std::vector<Tri> faces = allFaceTriangles(cut);
+  for (std::vector<Tri> cut_tris : cut_options) {
+    // Orient the cut triangles outward from the + side: a + corner must see them positively.
+    for (Tri& t : cut_tris)
+      if (signedVolume(check.rest(plus_corner), check.rest(t[0]), check.rest(t[1]),
+                       check.rest(t[2])) < 0)
+        std::swap(t[1], t[2]);
+    TetSplit split;
+    split.kind = SplitKind::kComplete;
+    bool ok = true;
+    for (int s : {1, -1}) {
+      std::vector<Tri> region;
+      for (const Tri& t : faces) {
+        int lo = 1, hi = -1;
+        for (int v : t) {
+          lo = std::min(lo, side_of[v]);
+          hi = std::max(hi, side_of[v]);
+        }
+        if (lo < 0 && hi > 0) return false;  // a face triangle across the cut: not a plane cut
+        if ((s > 0 && hi > 0) || (s < 0 && lo < 0)) region.push_back(t);
       }
-      if (lo < 0 && hi > 0) return false;  // a face triangle across the cut: not a plane cut
-      if ((s > 0 && hi > 0) || (s < 0 && lo < 0)) region.push_back(t);
+      for (const Tri& t : cut_tris) region.push_back(s > 0 ? t : Tri{t[0], t[2], t[1]});
+      std::set<int> vertices;
+      for (const Tri& t : region) vertices.insert(t.begin(), t.end());
+      std::vector<TetVerts> best;
+      for (int apex : vertices) {
+        auto tets = coneFrom(apex, region);
+        if (regionValid(check, tets)) {
+          best = std::move(tets);
+          break;
+        }
+      }
+      if (best.empty()) {
+        ok = false;
+        break;
+      }
+      split.tets.insert(split.tets.end(), best.begin(), best.end());
     }
-    for (const Tri& t : cut_tris) region.push_back(s > 0 ? t : Tri{t[0], t[2], t[1]});
-    int apex = region.front()[0];
-    for (const Tri& t : region)
-      for (int v : t) apex = std::min(apex, v);
-    auto tets = coneFrom(apex, region);
-    split.tets.insert(split.tets.end(), tets.begin(), tets.end());
+    if (!ok) continue;
+    split.cut_faces = cut_tris;
+    if (!check.valid(split.tets)) continue;
+    *out = std::move(split);
+    return true;
   }
-  split.cut_faces = cut_tris;
-  if (!check.valid(split.tets)) return false;
-  *out = std::move(split);
-  return true;
+  return false;
 }
 
 // --- partial cuts: the front crossed two faces; the cut crossed a path of edges between them.
@@ -358,7 +392,9 @@ std::vector<std::array<int, 3>> faceTriangles(const TetCut& cut, int f) {
   }
   if (k == 3) return {{a, mC, mB}, {b, mA, mC}, {c, mB, mA}, {mC, mA, mB}};
   // Two points: split off the corner X they share, then the quad (p, Y, Z, q) by the diagonal
-  // through its smallest id.
+  // from the older point (smaller id) to the corner opposite its edge. That is how the face was
+  // split when only the older point existed, so a neighbour that was replaced back then (its
+  // face split by the older point alone, then the newer) still matches.
   int X, Y, Z, p, q;
   if (mA < 0) {
     X = a, Y = b, Z = c, p = mC, q = mB;
@@ -368,11 +404,10 @@ std::vector<std::array<int, 3>> faceTriangles(const TetCut& cut, int f) {
     X = c, Y = a, Z = b, p = mB, q = mA;
   }
   out.push_back({X, p, q});
-  const int lowest = std::min(std::min(p, Y), std::min(Z, q));
-  if (lowest == p || lowest == Z) {
+  if (p < q) {  // p on XY sees Z
     out.push_back({p, Y, Z});
     out.push_back({p, Z, q});
-  } else {
+  } else {  // q on ZX sees Y
     out.push_back({p, Y, q});
     out.push_back({Y, Z, q});
   }

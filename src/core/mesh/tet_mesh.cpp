@@ -236,11 +236,8 @@ double TetMesh::currentVolume() const {
 }
 
 int TetMesh::allocateVertex() {
-  if (!free_vertices_.empty()) {
-    int v = free_vertices_.back();
-    free_vertices_.pop_back();
-    return v;
-  }
+  // Vertex slots are never reused: ids then grow with creation, and "smaller id" means "older",
+  // which the cut's face rule relies on (a dead slot costs a few bytes).
   rest_.emplace_back();
   current_.emplace_back();
   velocity_.emplace_back();
@@ -289,7 +286,6 @@ void TetMesh::removeVertex(int v, ChangeRecord* record) {
   if (!vertex_tets_[v].empty())
     throw std::logic_error("TetMesh::removeVertex: vertex " + std::to_string(v) + " still in use");
   vertex_alive_[v] = 0;
-  free_vertices_.push_back(v);
   --num_vertices_;
   if (record) record->removed_vertices.push_back(v);
 }
