@@ -2,6 +2,7 @@
 // tets near the blade costs as much as the blade's neighbourhood, not the whole mesh.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
@@ -26,6 +27,7 @@ class TetGrid {
 
  private:
   std::int64_t key(int i, int j, int k) const;
+  std::array<int, 3> cellOf(const Vec3& x) const;
   void insert(const TetMesh& mesh, int t);
 
   double cell_ = 1.0, margin_ = 0.0;

@@ -18,6 +18,11 @@ void tetBox(const TetMesh& mesh, int t, Vec3* lo, Vec3* hi) {
 
 }  // namespace
 
+std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
+  return {static_cast<int>(std::floor(x.x() / cell_)), static_cast<int>(std::floor(x.y() / cell_)),
+          static_cast<int>(std::floor(x.z() / cell_))};
+}
+
 std::int64_t TetGrid::key(int i, int j, int k) const {
   return (static_cast<std::int64_t>(i) & 0x1FFFFF) |
          ((static_cast<std::int64_t>(j) & 0x1FFFFF) << 21) |
@@ -29,12 +34,8 @@ void TetGrid::insert(const TetMesh& mesh, int t) {
   tetBox(mesh, t, &lo, &hi);
   lo.array() -= margin_;
   hi.array() += margin_;
-  const int i0 = static_cast<int>(std::floor(lo.x() / cell_)),
-            i1 = static_cast<int>(std::floor(hi.x() / cell_));
-  const int j0 = static_cast<int>(std::floor(lo.y() / cell_)),
-            j1 = static_cast<int>(std::floor(hi.y() / cell_));
-  const int k0 = static_cast<int>(std::floor(lo.z() / cell_)),
-            k1 = static_cast<int>(std::floor(hi.z() / cell_));
+  const auto [i0, j0, k0] = cellOf(lo);
+  const auto [i1, j1, k1] = cellOf(hi);
   for (int i = i0; i <= i1; ++i)
     for (int j = j0; j <= j1; ++j)
       for (int k = k0; k <= k1; ++k) {
@@ -81,12 +82,8 @@ std::vector<int> TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec3&
     std::fill(seen_.begin(), seen_.end(), 0);
     stamp_ = 1;
   }
-  const int i0 = static_cast<int>(std::floor(lo.x() / cell_)),
-            i1 = static_cast<int>(std::floor(hi.x() / cell_));
-  const int j0 = static_cast<int>(std::floor(lo.y() / cell_)),
-            j1 = static_cast<int>(std::floor(hi.y() / cell_));
-  const int k0 = static_cast<int>(std::floor(lo.z() / cell_)),
-            k1 = static_cast<int>(std::floor(hi.z() / cell_));
+  const auto [i0, j0, k0] = cellOf(lo);
+  const auto [i1, j1, k1] = cellOf(hi);
   if (static_cast<double>(i1 - i0 + 1) * (j1 - j0 + 1) * (k1 - k0 + 1) > 1e6) return out;
   for (int i = i0; i <= i1; ++i)
     for (int j = j0; j <= j1; ++j)
