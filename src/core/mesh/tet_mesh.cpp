@@ -478,8 +478,12 @@ std::string TetMesh::validate() const {
 
   // Boundary: each directed edge once and its reverse once (closed, consistently oriented), and
   // around each boundary vertex a single fan of triangles (a 2-manifold, no pinched vertex).
-  std::map<std::pair<int, int>, int> directed;
-  std::map<int, std::vector<std::pair<int, int>>> fans;  // vertex -> (next, prev) around it
+  // Hash maps: validate() runs after every tick under cut_replay --check.
+  auto edgeKey = [](int a, int b) { return (static_cast<long long>(a) << 32) | unsigned(b); };
+  std::unordered_map<long long, int> directed;
+  std::unordered_map<int, std::vector<std::pair<int, int>>> fans;  // vertex -> (next, prev)
+  directed.reserve(3 * static_cast<std::size_t>(num_boundary_faces_) + 1);
+  fans.reserve(static_cast<std::size_t>(num_boundary_faces_) + 1);
   int boundary = 0;
   for (int t = 0; t < tetSlots(); ++t) {
     if (!tet_alive_[t]) continue;
@@ -488,9 +492,9 @@ std::string TetMesh::validate() const {
       ++boundary;
       const TetVerts& tv = tets_[t];
       const int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]];
-      ++directed[{a, b}];
-      ++directed[{b, c}];
-      ++directed[{c, a}];
+      ++directed[edgeKey(a, b)];
+      ++directed[edgeKey(b, c)];
+      ++directed[edgeKey(c, a)];
       fans[a].emplace_back(b, c);
       fans[b].emplace_back(c, a);
       fans[c].emplace_back(a, b);
@@ -498,22 +502,21 @@ std::string TetMesh::validate() const {
   }
   if (boundary != num_boundary_faces_) return "boundary face count is out of date";
   for (const auto& [e, n] : directed) {
+    const int a = static_cast<int>(e >> 32), b = static_cast<int>(e & 0xffffffff);
     if (n != 1)
-      return "boundary edge (" + std::to_string(e.first) + ", " + std::to_string(e.second) +
-             ") appears in " + std::to_string(n) + " boundary triangles with one orientation";
-    if (!directed.count({e.second, e.first}))
-      return "boundary is open at edge (" + std::to_string(e.first) + ", " +
-             std::to_string(e.second) + ")";
+      return "boundary edge (" + std::to_string(a) + ", " + std::to_string(b) + ") appears in " +
+             std::to_string(n) + " boundary triangles with one orientation";
+    if (!directed.count(edgeKey(b, a)))
+      return "boundary is open at edge (" + std::to_string(a) + ", " + std::to_string(b) + ")";
   }
   for (const auto& [v, ring] : fans) {
     // Follow next -> prev links around v: one cycle must cover all its boundary triangles.
-    std::map<int, int> next;
-    for (const auto& [n, p] : ring) next[p] = n;
     int start = ring.front().second, cur = start, steps = 0;
     do {
-      auto it = next.find(cur);
-      if (it == next.end()) break;
-      cur = it->second;
+      auto it =
+          std::find_if(ring.begin(), ring.end(), [&](const auto& np) { return np.second == cur; });
+      if (it == ring.end()) break;
+      cur = it->first;
       ++steps;
     } while (cur != start && steps <= static_cast<int>(ring.size()));
     if (steps != static_cast<int>(ring.size()))

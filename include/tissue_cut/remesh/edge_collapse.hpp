@@ -1,0 +1,50 @@
+// Edge collapse (Ganovelli & O'Sullivan 2001): one end of a short edge moves onto the other and
+// the tets holding both vanish. Pure functions on TetMesh; choosing which edges to try is the
+// collapse queue's business.
+#pragma once
+
+#include "tissue_cut/mesh/tet_mesh.hpp"
+#include "tissue_cut/remesh/link_condition.hpp"
+
+namespace tissue_cut {
+
+/// What collapsing one edge would do, and why it would be refused.
+struct CollapseCheck {
+  CollapseRefusal refusal = CollapseRefusal::kNone;
+  int removed = -1;   ///< the end that moves onto the other and dies
+  int survivor = -1;  ///< the end that stays, keeping its rest and current positions
+  /// Worst rest Q over the star of `removed` (tets that vanish included) before the collapse.
+  double worst_before = 0.0;
+  /// Worst rest Q over the tets of that star that live on with `survivor` in place of `removed`
+  /// (1 when none does); 0 when refused before it was known (kBoundary, kLink, kInversion).
+  double worst_after = 0.0;
+};
+
+/// Smallest accepted volume of a tet after a collapse, relative to its longest edge cubed (a
+/// regular tet has 0.118): below it the tet counts as flattened.
+constexpr double kMinCollapseRelativeVolume = 1e-6;
+
+/// Decides how edge ab would collapse and whether it may.
+/// Inputs: mesh; a, b two live vertices joined by an edge. Output: the check (see CollapseCheck).
+/// Which end moves: the newer vertex (larger id) moves onto the older one, except that a boundary
+/// vertex never leaves the boundary: if only one end is on the boundary, the interior end moves.
+/// Refusals, in the order they are tested:
+///  - kBoundary: the edge is interior but both ends are on the boundary (either would leave it).
+///    The link condition refuses these edges too (ω is in both links but not in Lk(ab)); kBoundary
+///    names the reason that holds whichever end moves, so they are never reported as kLink.
+///  - kLink: linkConditionHolds(mesh, a, b) is false.
+///  - kInversion: a tet of the moved vertex's star not holding both ends would have signed volume
+///    at most kMinCollapseRelativeVolume * (longest edge)^3 in rest or in current positions.
+///  - kQuality: worst_after < worst_before (rest positions, Q = 3 r_in / R_circ).
+/// Throws std::invalid_argument when ab is not an edge of live tets.
+CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b);
+
+/// Collapses edge ab if checkCollapse accepts it: TetMesh::mergeVertices(removed, survivor,
+/// record), so the survivor keeps its own rest and current positions.
+/// Inputs: mesh; a, b as for checkCollapse; record (may be null) receives the change.
+/// Outputs: true when collapsed; false (mesh and record unchanged) when refused; *check (if
+/// given) the decision either way.
+bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record,
+                  CollapseCheck* check = nullptr);
+
+}  // namespace tissue_cut

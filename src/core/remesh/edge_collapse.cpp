@@ -1,0 +1,80 @@
+#include "tissue_cut/remesh/edge_collapse.hpp"
+
+#include <algorithm>
+#include <vector>
+
+#include "tissue_cut/mesh/quality.hpp"
+
+namespace tissue_cut {
+
+namespace {
+
+bool contains(const TetVerts& tv, int v) { return std::find(tv.begin(), tv.end(), v) != tv.end(); }
+
+// Positive and not flattened: the threshold scales with the tet so that it means the same at every
+// mesh size, and a tiny tet made by a cut is not refused for being small.
+bool isSound(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
+  const Vec3* p[4] = {&p0, &p1, &p2, &p3};
+  double longest = 0.0;
+  for (const auto& e : kTetEdge) longest = std::max(longest, (*p[e[0]] - *p[e[1]]).norm());
+  return signedVolume(p0, p1, p2, p3) > kMinCollapseRelativeVolume * longest * longest * longest;
+}
+
+}  // namespace
+
+CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
+  // Throws for a non-edge before anything else is read.
+  const bool link_holds = linkConditionHolds(mesh, a, b);
+
+  CollapseCheck check;
+  const bool a_boundary = isBoundaryVertex(mesh, a), b_boundary = isBoundaryVertex(mesh, b);
+  // Newer onto older: a cut point goes back onto an original vertex, and the older part of the
+  // mesh, which other data has seen longer, stays where it was.
+  check.removed = std::max(a, b);
+  check.survivor = std::min(a, b);
+  if (a_boundary != b_boundary) {
+    check.removed = a_boundary ? b : a;
+    check.survivor = a_boundary ? a : b;
+  }
+
+  const std::vector<int>& star = mesh.vertexTets(check.removed);
+  check.worst_before = 1.0;
+  for (int t : star) check.worst_before = std::min(check.worst_before, restQuality(mesh, t));
+
+  if (a_boundary && b_boundary && !isBoundaryEdge(mesh, a, b)) {
+    check.refusal = CollapseRefusal::kBoundary;
+    return check;
+  }
+  if (!link_holds) {
+    check.refusal = CollapseRefusal::kLink;
+    return check;
+  }
+
+  check.worst_after = 1.0;
+  for (int t : star) {
+    TetVerts tv = mesh.tet(t);
+    if (contains(tv, check.survivor)) continue;  // vanishes with the edge
+    *std::find(tv.begin(), tv.end(), check.removed) = check.survivor;
+    if (!isSound(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) ||
+        !isSound(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
+                 mesh.current(tv[3]))) {
+      check.refusal = CollapseRefusal::kInversion;
+      check.worst_after = 0.0;  // a flattened tet has Q = 0
+      return check;
+    }
+    check.worst_after = std::min(check.worst_after, tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]),
+                                                               mesh.rest(tv[2]), mesh.rest(tv[3])));
+  }
+  if (check.worst_after < check.worst_before) check.refusal = CollapseRefusal::kQuality;
+  return check;
+}
+
+bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record, CollapseCheck* check) {
+  const CollapseCheck decided = checkCollapse(*mesh, a, b);
+  if (check) *check = decided;
+  if (decided.refusal != CollapseRefusal::kNone) return false;
+  mesh->mergeVertices(decided.removed, decided.survivor, record);
+  return true;
+}
+
+}  // namespace tissue_cut

@@ -1,0 +1,352 @@
+// Edge collapse: the link condition (Dey et al. 1999) on small hand-built complexes, and the
+// geometric checks (inversion, quality) of checkCollapse / collapseEdge.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <numeric>
+#include <set>
+#include <stdexcept>
+#include <vector>
+
+#include "tissue_cut/mesh/block.hpp"
+#include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/mesh/tet_mesh.hpp"
+#include "tissue_cut/remesh/edge_collapse.hpp"
+#include "tissue_cut/remesh/link_condition.hpp"
+
+using namespace tissue_cut;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+int findRoot(std::vector<int>& parent, int x) {
+  while (parent[x] != x) x = parent[x] = parent[parent[x]];
+  return x;
+}
+
+// Number of connected boundary surfaces (vertices joined by boundary edges).
+int boundaryComponents(const TetMesh& mesh) {
+  std::vector<int> parent(mesh.vertexSlots());
+  std::iota(parent.begin(), parent.end(), 0);
+  std::vector<char> on_boundary(mesh.vertexSlots(), 0);
+  for (int t = 0; t < mesh.tetSlots(); ++t) {
+    if (!mesh.tetAlive(t)) continue;
+    for (int f = 0; f < 4; ++f) {
+      if (mesh.neighbor(t, f) >= 0) continue;
+      const int a = mesh.tet(t)[kTetFace[f][0]];
+      for (int k = 0; k < 3; ++k) {
+        const int v = mesh.tet(t)[kTetFace[f][k]];
+        on_boundary[v] = 1;
+        parent[findRoot(parent, v)] = findRoot(parent, a);
+      }
+    }
+  }
+  std::set<int> roots;
+  for (int v = 0; v < mesh.vertexSlots(); ++v)
+    if (on_boundary[v]) roots.insert(findRoot(parent, v));
+  return static_cast<int>(roots.size());
+}
+
+// The live vertex at rest position p.
+int vertexAt(const TetMesh& mesh, const Vec3& p) {
+  for (int v = 0; v < mesh.vertexSlots(); ++v)
+    if (mesh.vertexAlive(v) && (mesh.rest(v) - p).norm() < 1e-9) return v;
+  throw std::logic_error("no vertex there");
+}
+
+// Row of V holding p.
+int rowAt(const Eigen::MatrixXd& V, const Vec3& p) {
+  for (int r = 0; r < V.rows(); ++r)
+    if ((Vec3(V.row(r)) - p).norm() < 1e-9) return r;
+  throw std::logic_error("no row there");
+}
+
+// A block of unit Kuhn cells from the origin to (nx, ny, nz) [m].
+MeshData unitBlock(int nx, int ny, int nz) {
+  BlockSpec spec;
+  spec.min = Vec3::Zero();
+  spec.max = Vec3(nx, ny, nz);
+  spec.cell_size = 1.0;
+  return makeBlock(spec);
+}
+
+// Splits the prism (p0 p1 p2 | q0 q1 q2), pi above qi, into three tets whose quad diagonals start
+// at each quad's smallest id, so neighbouring prisms split any shared quad alike.
+void splitPrism(std::array<int, 3> p, std::array<int, 3> q, std::vector<TetVerts>* tets) {
+  int lowest = 0;
+  for (int i = 1; i < 3; ++i)
+    if (std::min(p[i], q[i]) < std::min(p[lowest], q[lowest])) lowest = i;
+  std::rotate(p.begin(), p.begin() + lowest, p.end());
+  std::rotate(q.begin(), q.begin() + lowest, q.end());
+  if (q[0] < p[0]) std::swap(p, q);
+  if (std::min(p[1], q[2]) < std::min(p[2], q[1])) {
+    tets->push_back({p[0], p[1], p[2], q[2]});
+    tets->push_back({p[0], p[1], q[2], q[1]});
+  } else {
+    tets->push_back({p[0], p[1], p[2], q[1]});
+    tets->push_back({p[0], q[1], p[2], q[2]});
+  }
+  tets->push_back({p[0], q[1], q[2], q[0]});
+}
+
+// A solid ring around the z axis: `sections` triangular cross-sections (inner vertex 3k on radius
+// 1, outer vertices 3k+1, 3k+2 on radius 2 at z = -/+0.5 [m]) joined by prisms. Its tunnel is
+// bounded by the loop of inner vertices 0, 3, 6, ...
+TetMesh ring(int sections) {
+  Eigen::MatrixXd V(3 * sections, 3);
+  for (int k = 0; k < sections; ++k) {
+    const double c = std::cos(2 * kPi * k / sections), s = std::sin(2 * kPi * k / sections);
+    V.row(3 * k) << c, s, 0.0;
+    V.row(3 * k + 1) << 2 * c, 2 * s, -0.5;
+    V.row(3 * k + 2) << 2 * c, 2 * s, 0.5;
+  }
+  std::vector<TetVerts> tets;
+  for (int k = 0; k < sections; ++k) {
+    const int n = (k + 1) % sections;
+    splitPrism({3 * k, 3 * k + 1, 3 * k + 2}, {3 * n, 3 * n + 1, 3 * n + 2}, &tets);
+  }
+  Eigen::MatrixXi T(tets.size(), 4);
+  for (std::size_t t = 0; t < tets.size(); ++t)
+    T.row(t) << tets[t][0], tets[t][1], tets[t][2], tets[t][3];
+  return TetMesh(V, T);
+}
+
+// Three tets around the interior edge (3, 4): equator a = 0, b = 1, c = 2, poles 3 (below) and 4
+// (above). Every vertex is on the boundary; the equator triangle (0, 1, 2) is not a face.
+TetMesh bipyramid() {
+  Eigen::MatrixXd V(5, 3);
+  V << 1, 0, 0, -0.5, 0.8660254, 0, -0.5, -0.8660254, 0, 0, 0, -1, 0, 0, 1;
+  Eigen::MatrixXi T(3, 4);
+  T << 0, 1, 3, 4, 1, 2, 3, 4, 2, 0, 3, 4;
+  return TetMesh(V, T);
+}
+
+// Opens a crack along the interior faces `cracked` accepts (given their vertices' rest
+// positions): around each vertex, tets that meet only across cracked faces get their own copy.
+MeshData crack(const MeshData& in,
+               const std::function<bool(const Vec3&, const Vec3&, const Vec3&)>& cracked) {
+  const TetMesh mesh(in.V, in.T);
+  MeshData out{in.V, in.T, 0};
+  std::vector<int> parent(mesh.tetSlots());
+  for (int v = 0; v < mesh.vertexSlots(); ++v) {
+    const std::vector<int>& star = mesh.vertexTets(v);
+    for (int t : star) parent[t] = t;
+    for (int t : star) {
+      const TetVerts& tv = mesh.tet(t);
+      for (int f = 0; f < 4; ++f) {
+        const int u = mesh.neighbor(t, f);
+        if (tv[f] == v || u < 0) continue;
+        if (cracked(mesh.rest(tv[kTetFace[f][0]]), mesh.rest(tv[kTetFace[f][1]]),
+                    mesh.rest(tv[kTetFace[f][2]])))
+          continue;
+        parent[findRoot(parent, t)] = findRoot(parent, u);
+      }
+    }
+    std::vector<std::pair<int, int>> copies;  // (component root, vertex id)
+    for (int t : star) {
+      const int root = findRoot(parent, t);
+      int id = -1;
+      for (const auto& [r, c] : copies)
+        if (r == root) id = c;
+      if (id < 0) {
+        id = copies.empty() ? v : static_cast<int>(out.V.rows());
+        if (id != v) {
+          out.V.conservativeResize(id + 1, 3);
+          out.V.row(id) = in.V.row(v);
+        }
+        copies.emplace_back(root, id);
+      }
+      for (int k = 0; k < 4; ++k)
+        if (out.T(t, k) == v) out.T(t, k) = id;
+    }
+  }
+  return out;
+}
+
+// A 3 x 3 x 3 block of unit cells whose vertex (2, 2, 2) sits at (1, 1, 1) + s (1, 1, 1) instead:
+// the six tets of cell (1, 1, 1) are flattened towards the short edge from vertex (1, 1, 1).
+TetMesh blockWithShortDiagonal(double s) {
+  MeshData b = unitBlock(3, 3, 3);
+  b.V.row(rowAt(b.V, Vec3(2, 2, 2))) = Vec3::Constant(1.0 + s).transpose();
+  return TetMesh(b.V, b.T);
+}
+
+}  // namespace
+
+TEST(LinkCondition, CollapseRefusesEdgeThatClosesAHole) {
+  // The tunnel of a three-section ring is bounded by the inner loop 0-3-6; contracting its edge
+  // (0, 3) would shrink the loop to a doubled edge and close the tunnel (the paper's Figure 3).
+  TetMesh mesh = ring(3);
+  ASSERT_EQ(mesh.validate(), "");
+  ASSERT_TRUE(isBoundaryEdge(mesh, 0, 3));
+  EXPECT_FALSE(linkConditionHolds(mesh, 0, 3));
+  EXPECT_EQ(checkCollapse(mesh, 0, 3).refusal, CollapseRefusal::kLink);
+}
+
+TEST(LinkCondition, SameEdgeOfAWiderRingKeepsTheHoleAndPasses) {
+  // With six sections the inner loop has six edges: contracting one leaves a tunnel of five.
+  TetMesh mesh = ring(6);
+  ASSERT_EQ(mesh.validate(), "");
+  EXPECT_TRUE(linkConditionHolds(mesh, 0, 3));
+}
+
+TEST(LinkCondition, CollapseRefusesEdgeWhoseEndsShareALinkVertexTheEdgeDoesNot) {
+  // Vertex 2 neighbours both ends of equator edge (0, 1) but no triangle (0, 1, 2) exists:
+  // contracting the edge would lay tet (1, 2, 3, 4) onto tet (0, 2, 3, 4), gluing two cells
+  // into one degenerate pair (the paper's Figure 4).
+  TetMesh mesh = bipyramid();
+  ASSERT_EQ(mesh.validate(), "");
+  ASSERT_TRUE(isBoundaryEdge(mesh, 0, 1));
+  EXPECT_FALSE(linkConditionHolds(mesh, 0, 1));
+  EXPECT_EQ(checkCollapse(mesh, 0, 1).refusal, CollapseRefusal::kLink);
+}
+
+TEST(LinkCondition, CollapseRefusesAnyEdgeOfALoneTet) {
+  // The two boundary faces opposite the edge share their third edge: the triangle level of the
+  // links catches a collapse that would flatten the whole piece.
+  Eigen::MatrixXd V(4, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  Eigen::MatrixXi T(1, 4);
+  T << 0, 1, 2, 3;
+  const TetMesh mesh(V, T);
+  for (const auto& e : kTetEdge) EXPECT_FALSE(linkConditionHolds(mesh, e[0], e[1]));
+}
+
+TEST(LinkCondition, CollapseRefusesInteriorEdgeBetweenTwoBoundaryVertices) {
+  // The poles' edge (3, 4) crosses the inside; both poles are on the surface, so either one
+  // moving onto the other would pinch the surface through the solid.
+  TetMesh mesh = bipyramid();
+  ASSERT_FALSE(isBoundaryEdge(mesh, 3, 4));
+  ASSERT_TRUE(isBoundaryVertex(mesh, 3));
+  ASSERT_TRUE(isBoundaryVertex(mesh, 4));
+  EXPECT_FALSE(linkConditionHolds(mesh, 3, 4));
+  EXPECT_EQ(checkCollapse(mesh, 3, 4).refusal, CollapseRefusal::kBoundary);
+}
+
+TEST(LinkCondition, CollapseRefusesInteriorEdgeAcrossTheMaterialUnderACrack) {
+  // A crack in the plane z = 1 from the side x = 0 up to x = 2. The vertical edge from the
+  // crack's lower face at (1, 1, 1) down to the bottom surface at (1, 1, 0) is interior; closing
+  // it would join the crack to the bottom surface.
+  const MeshData cracked =
+      crack(unitBlock(4, 3, 2), [](const Vec3& p, const Vec3& q, const Vec3& r) {
+        const bool in_plane = p.z() == 1 && q.z() == 1 && r.z() == 1;
+        return in_plane && std::max({p.x(), q.x(), r.x()}) <= 2;
+      });
+  TetMesh mesh(cracked.V, cracked.T);
+  ASSERT_EQ(mesh.validate(), "");
+  ASSERT_EQ(mesh.numVertices(), 5 * 4 * 3 + 3 * 4);  // the crack's 3 x 4 vertices off the front
+  const int bottom = vertexAt(mesh, Vec3(1, 1, 0));
+  int lower_face = -1;  // of the two copies at (1, 1, 1), the one below the crack
+  for (int v = 0; v < mesh.vertexSlots(); ++v)
+    if ((mesh.rest(v) - Vec3(1, 1, 1)).norm() < 1e-9 && !mesh.edgeTets(v, bottom).empty())
+      lower_face = v;
+  ASSERT_GE(lower_face, 0);
+  ASSERT_TRUE(isBoundaryVertex(mesh, lower_face));
+  ASSERT_FALSE(isBoundaryEdge(mesh, lower_face, bottom));
+  EXPECT_FALSE(linkConditionHolds(mesh, lower_face, bottom));
+  EXPECT_EQ(checkCollapse(mesh, lower_face, bottom).refusal, CollapseRefusal::kBoundary);
+}
+
+TEST(LinkCondition, InteriorEdgeOfABlockPassesTheLinkCondition) {
+  const MeshData b = unitBlock(3, 3, 3);
+  const TetMesh mesh(b.V, b.T);
+  EXPECT_TRUE(
+      linkConditionHolds(mesh, vertexAt(mesh, Vec3(1, 1, 1)), vertexAt(mesh, Vec3(2, 2, 2))));
+  EXPECT_TRUE(
+      linkConditionHolds(mesh, vertexAt(mesh, Vec3(1, 1, 1)), vertexAt(mesh, Vec3(2, 1, 1))));
+}
+
+TEST(LinkCondition, NonEdgeIsAnError) {
+  TetMesh mesh = bipyramid();
+  EXPECT_FALSE(mesh.edgeTets(0, 0).size());
+  EXPECT_THROW(linkConditionHolds(mesh, 0, 0), std::invalid_argument);
+  Eigen::MatrixXd V(8, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 5, 0, 0, 6, 0, 0, 5, 1, 0, 5, 0, 1;
+  Eigen::MatrixXi T(2, 4);
+  T << 0, 1, 2, 3, 4, 5, 6, 7;
+  const TetMesh apart(V, T);
+  EXPECT_THROW(checkCollapse(apart, 0, 4), std::invalid_argument);
+}
+
+TEST(EdgeCollapse, LegalInteriorCollapseKeepsAValidMeshOfTheSameShape) {
+  TetMesh mesh = blockWithShortDiagonal(0.25);
+  const int a = vertexAt(mesh, Vec3(1, 1, 1)), b = vertexAt(mesh, Vec3::Constant(1.25));
+  const int components = boundaryComponents(mesh), tets = mesh.numTets();
+  const double volume = mesh.restVolume();
+  const Vec3 survivor_rest = mesh.rest(a);
+  ChangeRecord record;
+  CollapseCheck check;
+  ASSERT_TRUE(collapseEdge(&mesh, a, b, &record, &check)) << toString(check.refusal);
+  EXPECT_EQ(check.removed, b);  // the newer vertex moves onto the older one
+  EXPECT_EQ(check.survivor, a);
+  EXPECT_FALSE(mesh.vertexAlive(b));
+  EXPECT_EQ(mesh.rest(a), survivor_rest);
+  EXPECT_EQ(mesh.validate(), "");
+  EXPECT_EQ(boundaryComponents(mesh), components);
+  EXPECT_EQ(mesh.numTets(), tets - 6);  // the six tets of the diagonal's cell vanish
+  // The moved vertex's star is re-spanned from the survivor over the same region.
+  EXPECT_NEAR(mesh.restVolume(), volume, 1e-12 * volume);
+  ASSERT_EQ(record.merged_vertices.size(), 1u);
+  EXPECT_EQ(record.merged_vertices[0], std::make_pair(b, a));
+}
+
+TEST(EdgeCollapse, InteriorEndMovesOntoBoundaryEnd) {
+  // Vertex (1, 1, 1) is interior and older than (1, 1, 0) on the bottom; still it is the one that
+  // moves, so the surface stays where it was.
+  const MeshData b = unitBlock(3, 3, 3);
+  const TetMesh mesh(b.V, b.T);
+  const int inner = vertexAt(mesh, Vec3(1, 1, 1)), outer = vertexAt(mesh, Vec3(1, 1, 0));
+  ASSERT_LT(outer, inner);
+  const CollapseCheck check = checkCollapse(mesh, outer, inner);
+  EXPECT_EQ(check.removed, inner);
+  EXPECT_EQ(check.survivor, outer);
+}
+
+TEST(EdgeCollapse, CollapseThatWouldFlipATetIsRefusedAsInversion) {
+  // Vertex (1, 1, 1) pulled back to (0.7, 0.7, 0.7): moving (2, 2, 2) onto it would carry the
+  // tets on the far faces of (2, 2, 2)'s star through their bases.
+  MeshData b = unitBlock(3, 3, 3);
+  b.V.row(rowAt(b.V, Vec3(1, 1, 1))) = Vec3::Constant(0.7).transpose();
+  const TetMesh mesh(b.V, b.T);
+  ASSERT_EQ(mesh.validate(), "");
+  const int a = vertexAt(mesh, Vec3::Constant(0.7)), c = vertexAt(mesh, Vec3(2, 2, 2));
+  ASSERT_TRUE(linkConditionHolds(mesh, a, c));
+  EXPECT_EQ(checkCollapse(mesh, a, c).refusal, CollapseRefusal::kInversion);
+}
+
+TEST(EdgeCollapse, CollapseThatWouldFlipATetInCurrentPositionsIsRefused) {
+  // Sound at rest, but the deformed survivor lies outside the moved vertex's current star.
+  TetMesh mesh = blockWithShortDiagonal(0.25);
+  const int a = vertexAt(mesh, Vec3(1, 1, 1)), b = vertexAt(mesh, Vec3::Constant(1.25));
+  ASSERT_EQ(checkCollapse(mesh, a, b).refusal, CollapseRefusal::kNone);
+  mesh.current(a) = Vec3::Constant(0.7);
+  EXPECT_EQ(checkCollapse(mesh, a, b).refusal, CollapseRefusal::kInversion);
+  ChangeRecord record;
+  const int tets = mesh.numTets();
+  EXPECT_FALSE(collapseEdge(&mesh, a, b, &record));
+  EXPECT_TRUE(record.empty());
+  EXPECT_EQ(mesh.numTets(), tets);
+}
+
+TEST(EdgeCollapse, CollapseThatLowersTheWorstQualityIsRefused) {
+  // The regular block: whatever an interior vertex moves onto, its star gets stretched.
+  const MeshData b = unitBlock(3, 3, 3);
+  const TetMesh mesh(b.V, b.T);
+  const CollapseCheck check =
+      checkCollapse(mesh, vertexAt(mesh, Vec3(1, 1, 1)), vertexAt(mesh, Vec3(2, 2, 2)));
+  EXPECT_EQ(check.refusal, CollapseRefusal::kQuality);
+  EXPECT_LT(check.worst_after, check.worst_before);
+}
+
+TEST(EdgeCollapse, CollapsingTheShortEdgeOfASliverImprovesTheWorstQuality) {
+  TetMesh mesh = blockWithShortDiagonal(0.05);
+  const int a = vertexAt(mesh, Vec3(1, 1, 1)), b = vertexAt(mesh, Vec3::Constant(1.05));
+  const double worst_mesh_before = summarizeQuality(mesh).min;
+  CollapseCheck check;
+  ASSERT_TRUE(collapseEdge(&mesh, a, b, nullptr, &check)) << toString(check.refusal);
+  EXPECT_GT(check.worst_after, check.worst_before);
+  EXPECT_GT(summarizeQuality(mesh).min, worst_mesh_before);
+  EXPECT_EQ(mesh.validate(), "");
+}
