@@ -11,6 +11,7 @@
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/physics/mass_spring.hpp"
+#include "tissue_cut/remesh/collapse_queue.hpp"
 #include "tissue_cut/statistics.hpp"
 
 namespace tissue_cut {
@@ -39,6 +40,7 @@ class Tissue {
   std::string validate() const;
   const Cutter& cutter() const { return *cutter_; }
   const MassSpring& physics() const { return *physics_; }
+  const CollapseQueue& collapse() const { return *collapse_; }
 
   /// Back to the mesh given at construction, uncut and at rest.
   void reset();
@@ -61,6 +63,7 @@ class Tissue {
   TetMesh mesh_;
   std::unique_ptr<Cutter> cutter_;
   std::unique_ptr<MassSpring> physics_;
+  std::unique_ptr<CollapseQueue> collapse_;
   std::vector<unsigned char> cut_region_;
   Statistics counters_;  // the running counts (cut, collapse, physics)
   TickTimes tick_times_;

@@ -45,6 +45,8 @@ void Tissue::reset() {
   cut.max_jump = config_.cut.max_jump;
   cutter_ = std::make_unique<Cutter>(&mesh_, cut);
   physics_ = std::make_unique<MassSpring>(&mesh_, massSpringParams(config_));
+  collapse_ =
+      std::make_unique<CollapseQueue>(&mesh_, config_.collapse.tau, config_.collapse.budget_us);
   cut_region_.assign(mesh_.tetSlots(), 0);
   counters_ = Statistics{};
   tick_times_.clear();
@@ -72,6 +74,19 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   std::string warning = cutter_->step(blade, &change);
   applyChange(change);
   physics_->follow(change);
+  auto created = [this](int t) {
+    return t < static_cast<int>(cut_region_.size()) && cut_region_[t];
+  };
+  collapse_->queueFrom(change, created);
+  if (config_.collapse.enabled) {
+    ChangeRecord collapsed;
+    collapse_->process([this](int v) { return cutter_->isBusy(v); }, created, &collapsed);
+    if (!collapsed.empty()) {
+      applyChange(collapsed);
+      cutter_->follow(collapsed);
+      physics_->follow(collapsed);
+    }
+  }
   if (config_.physics.enabled) {
     const std::string unstable = physics_->step(dt);
     if (!unstable.empty()) warning += (warning.empty() ? "" : "; ") + unstable;
@@ -90,6 +105,15 @@ Statistics Tissue::statistics() const {
   s.cut.cut_tetrahedra = cutter_->counts().cut_tetrahedra;
   s.cut.created_tetrahedra = cutter_->counts().created_tetrahedra;
   s.cut.time_ms = cutter_->counts().time_ms;
+  const CollapseCounts& c = collapse_->counts();
+  s.collapse.collapsed_edges = c.collapsed_edges;
+  s.collapse.removed_tetrahedra = c.removed_tetrahedra;
+  s.collapse.pending = collapse_->pending();
+  s.collapse.rejected_link = c.rejected_link;
+  s.collapse.rejected_inversion = c.rejected_inversion;
+  s.collapse.rejected_quality = c.rejected_quality;
+  s.collapse.rejected_boundary = c.rejected_boundary;
+  s.collapse.time_ms = c.time_ms;
   s.physics.mass_total = physics_->totalMass();
   s.physics.kinetic_energy = physics_->kineticEnergy();
   s.physics.instabilities = physics_->instabilities();

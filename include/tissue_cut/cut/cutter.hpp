@@ -66,6 +66,9 @@ class Cutter {
   int numDeferred() const { return static_cast<int>(deferred_.size()); }
   /// True for tets that are temporary pieces of a tet the blade is still inside.
   bool isPendingPiece(int t) const;
+  /// True for vertices a remesher must leave alone: next to a tet still being cut, on a cut face
+  /// not opened yet, or waiting to be split.
+  bool isBusy(int v) const;
   const CutCounts& counts() const { return counts_; }
   const std::unordered_set<int>& verticesOnCut() const { return on_cut_; }
   /// Resets all cut state (after the mesh was replaced).
@@ -126,6 +129,9 @@ class Cutter {
   std::unordered_set<int> on_cut_;       // vertices lying on the cut surface (snapped)
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
   std::set<std::array<int, 3>> marked_;  // cut faces not opened yet (sorted ids)
+  void mark(const std::array<int, 3>& face);
+  bool unmark(const std::array<int, 3>& face);
+  std::unordered_map<int, int> marked_at_;  // vertex -> number of marked faces holding it
   CutCounts counts_;
 };
 

@@ -35,6 +35,8 @@ constexpr double kMinCollapseRelativeVolume = 1e-6;
 ///  - kLink: linkConditionHolds(mesh, a, b) is false.
 ///  - kInversion: a tet of the moved vertex's star not holding both ends would have signed volume
 ///    at most kMinCollapseRelativeVolume * (longest edge)^3 in rest or in current positions.
+///  - kBoundary also: the rest volume of the moved vertex's star would change by more than 1e-6
+///    (relative), i.e. a boundary vertex would slide off a flat patch (corner, crease, crack rim).
 ///  - kQuality: worst_after < worst_before (rest positions, Q = 3 r_in / R_circ).
 /// Throws std::invalid_argument when ab is not an edge of live tets.
 CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b);

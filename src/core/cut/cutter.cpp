@@ -44,6 +44,7 @@ void Cutter::reset() {
   pending_.clear();
   on_cut_.clear();
   marked_.clear();
+  marked_at_.clear();
   previous_.reset();
   deferred_.clear();
   counts_ = CutCounts{};
@@ -54,6 +55,25 @@ void Cutter::reset() {
   mean_edge_ = edges.empty() ? 1.0 : sum / edges.size();
   snap_distance_ = options_.snap * mean_edge_;
   grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
+}
+
+void Cutter::mark(const std::array<int, 3>& face) {
+  if (marked_.insert(face).second)
+    for (int v : face) ++marked_at_[v];
+}
+
+bool Cutter::unmark(const std::array<int, 3>& face) {
+  if (!marked_.erase(face)) return false;
+  for (int v : face)
+    if (--marked_at_[v] == 0) marked_at_.erase(v);
+  return true;
+}
+
+bool Cutter::isBusy(int v) const {
+  if (deferred_.count(v) || marked_at_.count(v)) return true;
+  for (int t : mesh_->vertexTets(v))
+    if (isPendingPiece(t)) return true;
+  return false;
 }
 
 bool Cutter::isPendingPiece(int t) const {
@@ -319,7 +339,7 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
   ++counts_.by_kind[static_cast<int>(split.kind)];
   if (on_split) on_split(p.cut, split);
   for (const auto& f : split.cut_faces) {
-    marked_.insert(sortedFace(f[0], f[1], f[2]));
+    mark(sortedFace(f[0], f[1], f[2]));
     touched->insert(touched->end(), f.begin(), f.end());
   }
   if (split.kind == SplitKind::kUntouched || split.kind == SplitKind::kAlongFace) {
@@ -544,13 +564,13 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
         for (int f = 0; f < 4; ++f) {
           if (tv[f] == v) continue;
           auto key = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
-          if (!marked_.erase(key)) continue;
+          if (!unmark(key)) continue;
           const int u = mesh_->neighbor(t, f);
           if (u >= 0 && in_group.count(u)) {
             for (int& x : key)
               if (x == v) x = copy;
             std::sort(key.begin(), key.end());
-            marked_.insert(key);
+            mark(key);
           }
         }
       }

@@ -51,6 +51,8 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
   }
 
   check.worst_after = 1.0;
+  double volume_before = 0.0, volume_after = 0.0;
+  for (int t : star) volume_before += mesh.restVolume(t);
   for (int t : star) {
     TetVerts tv = mesh.tet(t);
     if (contains(tv, check.survivor)) continue;  // vanishes with the edge
@@ -64,6 +66,14 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
     }
     check.worst_after = std::min(check.worst_after, tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]),
                                                                mesh.rest(tv[2]), mesh.rest(tv[3])));
+    volume_after +=
+        signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
+  }
+  // Inside the body the star keeps its volume exactly; a change means the moved vertex was on a
+  // curved or creased part of the boundary (a corner, the crack's rim) and the shape would change.
+  if (std::abs(volume_after - volume_before) > 1e-6 * volume_before) {
+    check.refusal = CollapseRefusal::kBoundary;
+    return check;
   }
   if (check.worst_after < check.worst_before) check.refusal = CollapseRefusal::kQuality;
   return check;
