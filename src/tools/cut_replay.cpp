@@ -35,7 +35,7 @@ Replays a scalpel path over a tissue mesh, offline, with the node's own Tissue::
   --settle SECONDS     keep simulating this long after the path ends (blade stays put);
                        then one last tick lifts the blade out
   --no-physics         physics/enabled = false
-  --no-collapse        collapse/enabled = false
+  --no-collapse        collapse/enabled = false (edge collapse behind the cut is on by default)
   --tau T              collapse/tau
   --check              run TetMesh::validate() after every tick; stop at the first violation
   --out FILE           write the final mesh (.vtk .node .msh)
@@ -128,9 +128,12 @@ void printSummary(const tissue_cut::Statistics& s) {
               s.quality.mean);
   std::printf("cut         %d cut tets, %d created tets, %.3f ms\n", s.cut.cut_tetrahedra,
               s.cut.created_tetrahedra, s.cut.time_ms);
-  std::printf("collapse    %d edges, %d tets removed, %d pending, %.3f ms\n",
-              s.collapse.collapsed_edges, s.collapse.removed_tetrahedra, s.collapse.pending,
-              s.collapse.time_ms);
+  std::printf(
+      "collapse    %d edges, %d tets removed, %d pending, %.3f ms; refused: link %d, inversion %d, "
+      "quality %d, boundary %d\n",
+      s.collapse.collapsed_edges, s.collapse.removed_tetrahedra, s.collapse.pending,
+      s.collapse.time_ms, s.collapse.rejected_link, s.collapse.rejected_inversion,
+      s.collapse.rejected_quality, s.collapse.rejected_boundary);
   std::printf("region      %d tets, quality mean %.4f, min %.4f, %d below tau\n",
               s.region.tetrahedra, s.region.quality_mean, s.region.quality_min, s.region.below_tau);
   std::printf("physics     mass %.6g kg, kinetic energy %.3g J, %d instabilities\n",
