@@ -34,6 +34,10 @@ MassSpringParams massSpringParams(const Config& config) {
 Tissue::Tissue(const Config& config, const MeshData& mesh) : config_(config), initial_(mesh) {
   const std::string bad = config_.check();
   if (!bad.empty()) throw ConfigError(bad);
+  if (initial_.V.rows() == 0 || initial_.T.rows() == 0)
+    throw std::invalid_argument("the tissue mesh has no tetrahedra");
+  if (!initial_.V.allFinite())
+    throw std::invalid_argument("the tissue mesh has non-finite vertices");
   reset();
 }
 
@@ -71,7 +75,13 @@ void Tissue::applyChange(const ChangeRecord& change) {
 
 std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   ChangeRecord change;
-  std::string warning = cutter_->step(blade, &change);
+  std::string warning;
+  if (blade && !(blade->base.allFinite() && blade->tip.allFinite())) {
+    // A broken pose must not reach the geometry; the cut waits for the next good one.
+    warning = "blade position is not finite: ignored this tick";
+  } else {
+    warning = cutter_->step(blade, &change);
+  }
   applyChange(change);
   physics_->follow(change);
   auto created = [this](int t) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <random>
@@ -313,4 +314,36 @@ TEST(CuttingMeshes, CurvedCutStoppingInsideATetGenSphere) {
   const Statistics s = tissue.statistics();
   EXPECT_GT(s.cut.cut_tetrahedra, 30);
   EXPECT_EQ(s.region.tetrahedra, s.cut.created_tetrahedra);
+}
+
+TEST(Cutting, ANonFiniteBladeIsIgnoredAndTheCutGoesOn) {
+  Tissue tissue(cutOnly(0.06), makeBlock());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (int k = 0; k <= 300; ++k) {
+    BladeSegment blade = bladeFromPose(Vec3(-0.07 + 0.14 * k / 300.0, 0.0013, 0.045),
+                                       Eigen::Quaterniond::Identity(), 0.06);
+    if (k == 150) blade.tip.x() = nan;
+    const std::string warning = tissue.step(blade, 1e-3);
+    if (k == 150) {
+      EXPECT_NE(warning.find("not finite"), std::string::npos);
+    }
+    ASSERT_EQ(tissue.validate(), "") << "tick " << k;
+  }
+  tissue.step(std::nullopt, 1e-3);
+  EXPECT_EQ(countPieces(tissue.mesh()), 2);
+  for (int v = 0; v < tissue.mesh().vertexSlots(); ++v) {
+    if (tissue.mesh().vertexAlive(v)) {
+      ASSERT_TRUE(tissue.mesh().current(v).allFinite());
+    }
+  }
+}
+
+TEST(Cutting, AnEmptyOrNonFiniteMeshIsRefused) {
+  MeshData empty;
+  empty.V.resize(0, 3);
+  empty.T.resize(0, 4);
+  EXPECT_THROW(Tissue(cutOnly(0.03), empty), std::invalid_argument);
+  MeshData bad = makeBlock();
+  bad.V(3, 1) = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(Tissue(cutOnly(0.03), bad), std::invalid_argument);
 }
