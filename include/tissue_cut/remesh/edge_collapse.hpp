@@ -28,6 +28,8 @@ constexpr double kMinCollapseRelativeVolume = 1e-6;
 /// Inputs: mesh; a, b two live vertices joined by an edge. Output: the check (see CollapseCheck).
 /// Which end moves: the newer vertex (larger id) moves onto the older one, except that a boundary
 /// vertex never leaves the boundary: if only one end is on the boundary, the interior end moves.
+/// When both ends are alike and the preferred way is refused for geometry (kInversion, kQuality,
+/// kBoundary), the other way round is checked too and taken if it passes.
 /// Refusals, in the order they are tested:
 ///  - kBoundary: the edge is interior but both ends are on the boundary (either would leave it).
 ///    The link condition refuses these edges too (ω is in both links but not in Lk(ab)); kBoundary

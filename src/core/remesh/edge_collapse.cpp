@@ -20,22 +20,12 @@ bool isSound(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
   return signedVolume(p0, p1, p2, p3) > kMinCollapseRelativeVolume * longest * longest * longest;
 }
 
-}  // namespace
-
-CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
-  // Throws for a non-edge before anything else is read.
-  const bool link_holds = linkConditionHolds(mesh, a, b);
-
+// The checks for moving `removed` onto `survivor`, in the order the header lists them.
+CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link_holds,
+                       bool a_boundary, bool b_boundary, int a, int b) {
   CollapseCheck check;
-  const bool a_boundary = isBoundaryVertex(mesh, a), b_boundary = isBoundaryVertex(mesh, b);
-  // Newer onto older: a cut point goes back onto an original vertex, and the older part of the
-  // mesh, which other data has seen longer, stays where it was.
-  check.removed = std::max(a, b);
-  check.survivor = std::min(a, b);
-  if (a_boundary != b_boundary) {
-    check.removed = a_boundary ? b : a;
-    check.survivor = a_boundary ? a : b;
-  }
+  check.removed = removed;
+  check.survivor = survivor;
 
   const std::vector<int>& star = mesh.vertexTets(check.removed);
   check.worst_before = 1.0;
@@ -77,6 +67,32 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
   }
   if (check.worst_after < check.worst_before) check.refusal = CollapseRefusal::kQuality;
   return check;
+}
+
+}  // namespace
+
+CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
+  // Throws for a non-edge before anything else is read.
+  const bool link_holds = linkConditionHolds(mesh, a, b);
+  const bool a_boundary = isBoundaryVertex(mesh, a), b_boundary = isBoundaryVertex(mesh, b);
+  // Newer onto older: a cut point goes back onto an original vertex, and the older part of the
+  // mesh, which other data has seen longer, stays where it was.
+  int removed = std::max(a, b), survivor = std::min(a, b);
+  if (a_boundary != b_boundary) {
+    removed = a_boundary ? b : a;
+    survivor = a_boundary ? a : b;
+  }
+  const CollapseCheck first =
+      evaluate(mesh, removed, survivor, link_holds, a_boundary, b_boundary, a, b);
+  // When the preferred way would flatten a tet, worsen the star or bend the boundary, the other
+  // way round may not (only where both ends are alike: a boundary vertex never leaves it).
+  const bool geometric = first.refusal == CollapseRefusal::kInversion ||
+                         first.refusal == CollapseRefusal::kQuality ||
+                         first.refusal == CollapseRefusal::kBoundary;
+  if (!geometric || a_boundary != b_boundary) return first;
+  const CollapseCheck second =
+      evaluate(mesh, survivor, removed, link_holds, a_boundary, b_boundary, a, b);
+  return second.refusal == CollapseRefusal::kNone ? second : first;
 }
 
 bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record, CollapseCheck* check) {
