@@ -87,6 +87,8 @@ struct BadInput {
 
 TEST(CutReplayCli, RefusesBadInputWithAClearMessage) {
   const std::string bad = kSource + "/test/data/bad/";
+  const std::string limit = testing::TempDir() + "limit.yaml";
+  std::ofstream(limit) << "mesh_max_tets: 100\n";  // the ellipsoid has 1,622
   const BadInput cases[] = {
       {"--mesh /nonexistent/organ.msh", 2, "organ.msh"},
       {"--mesh " + bad + "msh22_truncated.msh", 2, "msh22_truncated.msh"},
@@ -96,6 +98,11 @@ TEST(CutReplayCli, RefusesBadInputWithAClearMessage) {
       {"--mesh " + bad + "tetgen_out_of_range.node", 2, "tetgen_out_of_range"},
       {"--mesh " + bad + "stl_open.stl", 2, "stl_open.stl"},
       {"--mesh " + bad + "mesh.xyz", 2, "mesh.xyz"},
+      {"--mesh " + bad + "msh22_empty.msh", 2, "msh22_empty.msh"},
+      {"--mesh " + bad + "vtk_binary_garbage.vtk", 2, "vtk_binary_garbage.vtk"},
+      {"--mesh " + bad + "tetgen_nonfinite.node", 2, "tetgen_nonfinite"},
+      {"--mesh " + bad + "stl_garbage.stl", 2, "stl_garbage.stl"},
+      {"--config " + limit + " --mesh " + kSource + "/meshes/ellipsoid_v22.msh", 2, "limit"},
       {"--config /nonexistent/settings.yaml", 2, "settings.yaml"},
       {"--rate 0", 2, "rate"},
       {"--blade-length -0.01", 2, "cut/blade_length"},
