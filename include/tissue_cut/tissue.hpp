@@ -65,7 +65,6 @@ class Tissue {
   std::unique_ptr<MassSpring> physics_;
   std::unique_ptr<CollapseQueue> collapse_;
   std::vector<unsigned char> cut_region_;
-  Statistics counters_;  // the running counts (cut, collapse, physics)
   TickTimes tick_times_;
   double initial_volume_ = 0.0;
 };

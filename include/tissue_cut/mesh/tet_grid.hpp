@@ -21,7 +21,7 @@ class TetGrid {
   /// Live tets whose current bounding box overlaps the box [lo, hi] [m].
   std::vector<int> query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi) const;
   /// True when the index has gone stale: positions drifted past the margin for some vertex, or
-  /// dead entries pile up. Checks `vertices` only (those near the query).
+  /// dead entries pile up. Scans every vertex: call it now and then, not every tick.
   bool needsRebuild(const TetMesh& mesh) const;
   bool empty() const { return cells_.empty(); }
 

@@ -43,38 +43,28 @@ struct Checker {
     current_volume = signedVolume(cur(v[0]), cur(v[1]), cur(v[2]), cur(v[3]));
   }
 
-  // Every tet positive (rest, and current unless the tet is inverted there already) and the
-  // pieces adding up to the whole: a wrong decomposition overlaps and overshoots.
-  bool valid(const std::vector<TetVerts>& tets) const {
-    double sum = 0.0;
+  // Every tet positive (rest, and current unless the tet is inverted there already): enough for
+  // one side of a cut, which is only part of the tet.
+  bool positive(const std::vector<TetVerts>& tets) const {
     for (const TetVerts& t : tets) {
-      const double vr = signedVolume(rest(t[0]), rest(t[1]), rest(t[2]), rest(t[3]));
-      if (!(vr > 1e-12 * rest_volume)) return false;
-      sum += vr;
-      if (current_volume > 0) {
-        const double vc = signedVolume(current(t[0]), current(t[1]), current(t[2]), current(t[3]));
-        if (!(vc > 1e-12 * current_volume)) return false;
-      }
+      if (!(signedVolume(rest(t[0]), rest(t[1]), rest(t[2]), rest(t[3])) > 1e-12 * rest_volume))
+        return false;
+      if (current_volume > 0 && !(signedVolume(current(t[0]), current(t[1]), current(t[2]),
+                                               current(t[3])) > 1e-12 * current_volume))
+        return false;
     }
+    return true;
+  }
+
+  // Positive and adding up to the whole: a wrong decomposition overlaps and overshoots.
+  bool valid(const std::vector<TetVerts>& tets) const {
+    if (!positive(tets)) return false;
+    double sum = 0.0;
+    for (const TetVerts& t : tets)
+      sum += signedVolume(rest(t[0]), rest(t[1]), rest(t[2]), rest(t[3]));
     return std::abs(sum - rest_volume) <= 1e-9 * rest_volume;
   }
 };
-
-// Every tet positive (rest, and current unless the tet is inverted there already): the test for
-// one side of a cut, which is only part of the tet.
-bool regionValid(const Checker& check, const std::vector<TetVerts>& tets) {
-  for (const TetVerts& t : tets) {
-    const double vr =
-        signedVolume(check.rest(t[0]), check.rest(t[1]), check.rest(t[2]), check.rest(t[3]));
-    if (!(vr > 1e-12 * check.rest_volume)) return false;
-    if (check.current_volume > 0) {
-      const double vc = signedVolume(check.current(t[0]), check.current(t[1]), check.current(t[2]),
-                                     check.current(t[3]));
-      if (!(vc > 1e-12 * check.current_volume)) return false;
-    }
-  }
-  return true;
-}
 
 std::vector<Tri> allFaceTriangles(const TetCut& cut) {
   std::vector<Tri> out;
@@ -200,7 +190,7 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
       std::vector<TetVerts> best;
       for (int apex : vertices) {
         auto tets = coneFrom(apex, region);
-        if (regionValid(check, tets)) {
+        if (check.positive(tets)) {
           best = std::move(tets);
           break;
         }

@@ -104,6 +104,16 @@ class MshPrescan {
   void scanElements22();
   void scanNodes41();
   void scanElements41();
+  // The header of a 4.1 $Nodes or $Elements section, and the checks closing it.
+  struct BlocksHeader41 {
+    std::uint64_t num_blocks = 0, count = 0, min_tag = 0, max_tag = 0;
+    std::size_t header_at = 0;
+  };
+  BlocksHeader41 readBlocksHeader41(ByteReader& reader, const std::string& kind,
+                                    std::size_t binary_record_bytes, std::size_t text_record_bytes);
+  void closeBlocks41(const BlocksHeader41& h, const std::string& kind, std::uint64_t seen,
+                     std::uint64_t lowest, std::uint64_t highest, const ByteReader& reader,
+                     const std::string& section);
   void skipSection(const std::string& name);
   void expectSectionEnd(const std::string& name);
   void afterBinaryData(std::size_t offset);
@@ -623,29 +633,57 @@ void MshPrescan::scanElements22() {
   expectSectionEnd("Elements");
 }
 
+MshPrescan::BlocksHeader41 MshPrescan::readBlocksHeader41(ByteReader& reader,
+                                                          const std::string& kind,
+                                                          std::size_t binary_record_bytes,
+                                                          std::size_t text_record_bytes) {
+  // The header of a 4.1 $Nodes or $Elements section: blocks, count, min tag, max tag.
+  constexpr std::int64_t kMaxTag = std::numeric_limits<std::int64_t>::max();
+  BlocksHeader41 h;
+  if (layout_.binary) {
+    h.header_at = reader.offset();
+    h.num_blocks = binaryCount(reader, 4 * 3 + 8, ("number of " + kind + " blocks").c_str());
+    h.count = binaryCount(reader, binary_record_bytes, ("number of " + kind + "s").c_str());
+    h.min_tag = reader.read<std::uint64_t>(("the " + kind + " section header").c_str());
+    h.max_tag = reader.read<std::uint64_t>(("the " + kind + " section header").c_str());
+  } else {
+    splitLine(requireLine(("the " + kind + " section header").c_str()), kMaxShortLine, false);
+    h.header_at = lines_.lineNumber();
+    requireFieldCount(4, ("blocks, " + kind + "s, min tag, max tag").c_str());
+    h.num_blocks = declaredCount(0, kMinNodeLine, ("number of " + kind + " blocks").c_str());
+    h.count = declaredCount(1, text_record_bytes, ("number of " + kind + "s").c_str());
+    h.min_tag =
+        static_cast<std::uint64_t>(intField(2, 0, kMaxTag, ("min " + kind + " tag").c_str()));
+    h.max_tag =
+        static_cast<std::uint64_t>(intField(3, 0, kMaxTag, ("max " + kind + " tag").c_str()));
+  }
+  return h;
+}
+
+void MshPrescan::closeBlocks41(const BlocksHeader41& h, const std::string& kind, std::uint64_t seen,
+                               std::uint64_t lowest, std::uint64_t highest,
+                               const ByteReader& reader, const std::string& section) {
+  // The blocks must hold what the header declared, tags included.
+  if (seen != h.count) {
+    throwMeshIOError(file_.name, ref(h.header_at),
+                     "the section header declares " + std::to_string(h.count) + " " + kind +
+                         "s, the blocks hold " + std::to_string(seen));
+  }
+  if (h.count > 0 && (lowest != h.min_tag || highest != h.max_tag)) {
+    throwMeshIOError(file_.name, ref(h.header_at),
+                     "declared " + kind + " tag range [" + std::to_string(h.min_tag) + ", " +
+                         std::to_string(h.max_tag) + "] differs from the tags present [" +
+                         std::to_string(lowest) + ", " + std::to_string(highest) + "]");
+  }
+  if (layout_.binary) afterBinaryData(reader.offset());
+  expectSectionEnd(section);
+}
+
 void MshPrescan::scanNodes41() {
   constexpr std::int64_t kMaxTag = std::numeric_limits<std::int64_t>::max();
-  std::uint64_t num_blocks = 0;
-  std::uint64_t num_nodes = 0;
-  std::uint64_t min_tag = 0;
-  std::uint64_t max_tag = 0;
-  std::size_t header_at = 0;
   ByteReader reader(file_, lines_.offset(), big_endian_);
-  if (layout_.binary) {
-    header_at = reader.offset();
-    num_blocks = binaryCount(reader, 4 * 3 + 8, "number of node blocks");
-    num_nodes = binaryCount(reader, 8 + 3 * 8, "number of nodes");
-    min_tag = reader.read<std::uint64_t>("the node section header");
-    max_tag = reader.read<std::uint64_t>("the node section header");
-  } else {
-    splitLine(requireLine("the node section header"), kMaxShortLine, false);
-    header_at = lines_.lineNumber();
-    requireFieldCount(4, "blocks, nodes, min tag, max tag");
-    num_blocks = declaredCount(0, kMinNodeLine, "number of node blocks");
-    num_nodes = declaredCount(1, kMinNodeLine, "number of nodes");
-    min_tag = static_cast<std::uint64_t>(intField(2, 0, kMaxTag, "min node tag"));
-    max_tag = static_cast<std::uint64_t>(intField(3, 0, kMaxTag, "max node tag"));
-  }
+  const BlocksHeader41 h = readBlocksHeader41(reader, "node", 8 + 3 * 8, kMinNodeLine);
+  const std::uint64_t num_blocks = h.num_blocks, num_nodes = h.count;
   layout_.node_tags.reserve(num_nodes);
   node_index_.reserve(num_nodes);
 
@@ -726,44 +764,14 @@ void MshPrescan::scanNodes41() {
     }
     seen += block_size;
   }
-  if (seen != num_nodes) {
-    throwMeshIOError(file_.name, ref(header_at),
-                     "the section header declares " + std::to_string(num_nodes) +
-                         " nodes, the blocks hold " + std::to_string(seen));
-  }
-  if (num_nodes > 0 && (lowest != min_tag || highest != max_tag)) {
-    throwMeshIOError(file_.name, ref(header_at),
-                     "declared node tag range [" + std::to_string(min_tag) + ", " +
-                         std::to_string(max_tag) + "] differs from the tags present [" +
-                         std::to_string(lowest) + ", " + std::to_string(highest) + "]");
-  }
-  if (layout_.binary) afterBinaryData(reader.offset());
-  expectSectionEnd("Nodes");
+  closeBlocks41(h, "node", seen, lowest, highest, reader, "Nodes");
 }
 
 void MshPrescan::scanElements41() {
   constexpr std::int64_t kMaxTag = std::numeric_limits<std::int64_t>::max();
-  std::uint64_t num_blocks = 0;
-  std::uint64_t num_elements = 0;
-  std::uint64_t min_tag = 0;
-  std::uint64_t max_tag = 0;
-  std::size_t header_at = 0;
   ByteReader reader(file_, lines_.offset(), big_endian_);
-  if (layout_.binary) {
-    header_at = reader.offset();
-    num_blocks = binaryCount(reader, 4 * 3 + 8, "number of element blocks");
-    num_elements = binaryCount(reader, 2 * 8, "number of elements");
-    min_tag = reader.read<std::uint64_t>("the element section header");
-    max_tag = reader.read<std::uint64_t>("the element section header");
-  } else {
-    splitLine(requireLine("the element section header"), kMaxShortLine, false);
-    header_at = lines_.lineNumber();
-    requireFieldCount(4, "blocks, elements, min tag, max tag");
-    num_blocks = declaredCount(0, kMinNodeLine, "number of element blocks");
-    num_elements = declaredCount(1, 4, "number of elements");
-    min_tag = static_cast<std::uint64_t>(intField(2, 0, kMaxTag, "min element tag"));
-    max_tag = static_cast<std::uint64_t>(intField(3, 0, kMaxTag, "max element tag"));
-  }
+  const BlocksHeader41 h = readBlocksHeader41(reader, "element", 2 * 8, 4);
+  const std::uint64_t num_blocks = h.num_blocks, num_elements = h.count;
   element_index_.reserve(num_elements);
 
   std::uint64_t seen = 0;
@@ -850,19 +858,7 @@ void MshPrescan::scanElements41() {
     }
     seen += block_size;
   }
-  if (seen != num_elements) {
-    throwMeshIOError(file_.name, ref(header_at),
-                     "the section header declares " + std::to_string(num_elements) +
-                         " elements, the blocks hold " + std::to_string(seen));
-  }
-  if (num_elements > 0 && (lowest != min_tag || highest != max_tag)) {
-    throwMeshIOError(file_.name, ref(header_at),
-                     "declared element tag range [" + std::to_string(min_tag) + ", " +
-                         std::to_string(max_tag) + "] differs from the tags present [" +
-                         std::to_string(lowest) + ", " + std::to_string(highest) + "]");
-  }
-  if (layout_.binary) afterBinaryData(reader.offset());
-  expectSectionEnd("Elements");
+  closeBlocks41(h, "element", seen, lowest, highest, reader, "Elements");
 }
 
 }  // namespace
