@@ -8,6 +8,10 @@
 
 #include "tissue_cut/mesh/tet_mesh.hpp"
 
+namespace YAML {
+class Node;
+}
+
 namespace tissue_cut {
 
 /// A configuration value or file that cannot be used; what() names the key or file.
@@ -60,5 +64,11 @@ Config loadConfigFile(const std::string& path, const Config& base = Config{});
 
 /// Every key of Config as it is spelled in YAML and on the parameter server.
 std::vector<std::string> configKeys();
+
+/// Sets one key (as spelled in configKeys()) from a YAML value; `source` names where it came
+/// from in errors. Throws ConfigError for an unknown key or a value of the wrong type; the value
+/// itself is checked later by Config::check().
+void setConfigValue(const std::string& key, const YAML::Node& value, const std::string& source,
+                    Config* config);
 
 }  // namespace tissue_cut

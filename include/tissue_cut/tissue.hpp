@@ -45,6 +45,13 @@ class Tissue {
   /// Back to the mesh given at construction, uncut and at rest.
   void reset();
 
+  /// Applies a changed configuration between ticks: collapse (enabled, tau, budget), the cut's
+  /// blade length and max jump, and the physics material (enabled, integrator, density, Young's
+  /// modulus, damping, gravity). Keys that need the model rebuilt (mesh, mesh_max_tets,
+  /// block_cell_size, physics/fixed_*) must be unchanged. Returns "" when applied, else the
+  /// first key that is invalid or cannot change live; the model is then left as it was.
+  std::string reconfigure(const Config& config);
+
   const TetMesh& mesh() const { return mesh_; }
   const Config& config() const { return config_; }
   /// 1 for live tets made by cuts (indexed by tet slot).

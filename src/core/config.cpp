@@ -69,18 +69,24 @@ void readNode(const YAML::Node& node, const std::string& prefix, const std::stri
       readNode(kv.second, key + "/", path, c);
       continue;
     }
-    auto it = setters().find(key);
-    if (it == setters().end()) throw ConfigError(path + ": unknown key '" + key + "'");
-    try {
-      it->second(kv.second, c);
-    } catch (const YAML::Exception& e) {
-      throw ConfigError(path + ": key '" + key + "' has a value of the wrong type (line " +
-                        std::to_string(kv.second.Mark().line + 1) + ")");
-    }
+    setConfigValue(key, kv.second, path, &c);
   }
 }
 
 }  // namespace
+
+void setConfigValue(const std::string& key, const YAML::Node& value, const std::string& source,
+                    Config* config) {
+  auto it = setters().find(key);
+  if (it == setters().end()) throw ConfigError(source + ": unknown key '" + key + "'");
+  try {
+    it->second(value, *config);
+  } catch (const YAML::Exception& e) {
+    const int line = value.Mark().line;
+    throw ConfigError(source + ": key '" + key + "' has a value of the wrong type" +
+                      (line >= 0 ? " (line " + std::to_string(line + 1) + ")" : ""));
+  }
+}
 
 std::vector<std::string> configKeys() {
   std::vector<std::string> keys;

@@ -56,6 +56,24 @@ void Tissue::reset() {
   initial_volume_ = mesh_.restVolume();
 }
 
+std::string Tissue::reconfigure(const Config& c) {
+  const std::string bad = c.check();
+  if (!bad.empty()) return bad;
+  if (c.mesh != config_.mesh) return "mesh: changes only by loading a mesh";
+  if (c.mesh_max_tets != config_.mesh_max_tets) return "mesh_max_tets: cannot change live";
+  if (c.block_cell_size != config_.block_cell_size) return "block_cell_size: cannot change live";
+  if (c.physics.fixed_axis != config_.physics.fixed_axis ||
+      c.physics.fixed_side != config_.physics.fixed_side ||
+      c.physics.fixed_band != config_.physics.fixed_band)
+    return "physics/fixed_axis, fixed_side, fixed_band: cannot change live";
+  if (c.cut.max_jump != config_.cut.max_jump) cutter_->setMaxJump(c.cut.max_jump);
+  collapse_->setTau(c.collapse.tau);
+  collapse_->setBudget(c.collapse.budget_us);
+  physics_->setParams(massSpringParams(c));
+  config_ = c;
+  return "";
+}
+
 void Tissue::applyChange(const ChangeRecord& change) {
   // A renamed tet keeps its flag; a tet a cut made gets 1. Slots may be reused within a record,
   // so read the removed flags first.

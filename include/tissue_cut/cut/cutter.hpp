@@ -73,6 +73,8 @@ class Cutter {
   const std::unordered_set<int>& verticesOnCut() const { return on_cut_; }
   /// Resets all cut state (after the mesh was replaced).
   void reset();
+  /// See CutterOptions::max_jump [m].
+  void setMaxJump(double max_jump) { options_.max_jump = max_jump; }
 
   /// Called with every tet replaced and how (for diagnostics and tests).
   std::function<void(const TetCut&, const TetSplit&)> on_split;
