@@ -17,6 +17,13 @@ TISSUE_CUT_PACKAGES=(
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libgmsh-dev
   libgtest-dev libbenchmark-dev
   python3-numpy python3-vtk9 python3-meshio
+  # the node, its tests and the demo
+  libtf2-ros-dev libtf2-geometry-msgs-dev libtf2-msgs-dev libdiagnostic-updater-dev
+  libdiagnostic-msgs-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
+  libinteractive-markers-dev librosbag-dev librosbag-storage-dev librostest-dev
+  libvisualization-msgs-dev python3-std-msgs python3-geometry-msgs python3-visualization-msgs
+  python3-tf2-msgs python3-rostopic python3-rosservice python3-rosnode python3-rosparam
+  python3-rospy python3-rosbag rviz xvfb imagemagick python3-pil
 )
 
 tissue_cut_install() {

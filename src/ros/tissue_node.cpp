@@ -480,7 +480,8 @@ void TissueNode::makeInteractiveScalpel() {
   body.markers.push_back(blade);
   im.controls.push_back(body);
 
-  const double axes[3][4] = {{1, 1, 0, 0}, {1, 0, 1, 0}, {1, 0, 0, 1}};  // w, x, y, z
+  const double h = std::sqrt(0.5);  // control frames: x, then z (the y-up of RViz's), then y
+  const double axes[3][4] = {{h, h, 0, 0}, {h, 0, h, 0}, {h, 0, 0, h}};  // w, x, y, z
   const char* names[3] = {"x", "z", "y"};
   for (int i = 0; i < 3; ++i) {
     visualization_msgs::InteractiveMarkerControl c;
