@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "tissue_cut/config.hpp"
+#include "bag_path.hpp"
 #include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/tissue.hpp"
@@ -30,6 +31,8 @@ Replays a scalpel path over a tissue mesh, offline, with the node's own Tissue::
   --mesh FILE          mesh (.msh .node .ele .vtk .stl); default: the built-in block
   --config FILE.yaml   configuration keys (see config/tissue.yaml); flags override it
   --path FILE.csv      scalpel path, header t,x,y,z,qx,qy,qz,qw (mesh frame, seconds)
+  --bag FILE.bag       scalpel path from a rosbag of geometry_msgs/PoseStamped (with --topic)
+  --topic NAME         the bag's pose topic, e.g. /tissue/scalpel_pose
   --blade-length L     blade length [m] (cut/blade_length)
   --rate HZ            ticks per second (rate), default 1000
   --settle SECONDS     keep simulating this long after the path ends (blade stays put);
@@ -45,7 +48,7 @@ exit status: 0 done, 1 bad usage, 2 unusable input (mesh, config, path, output),
 )";
 
 struct Options {
-  std::string mesh, config, path, out, stats;
+  std::string mesh, config, path, out, stats, bag, topic;
   std::optional<double> blade_length, rate, tau;
   double settle = 0.0;
   bool no_physics = false, no_collapse = false, check = false, quiet = false;
@@ -84,6 +87,10 @@ std::string parseArgs(int argc, char** argv, Options* o) {
       err = value(&o->config);
     } else if (a == "--path") {
       err = value(&o->path);
+    } else if (a == "--bag") {
+      err = value(&o->bag);
+    } else if (a == "--topic") {
+      err = value(&o->topic);
     } else if (a == "--out") {
       err = value(&o->out);
     } else if (a == "--stats") {
@@ -115,6 +122,9 @@ std::string parseArgs(int argc, char** argv, Options* o) {
     }
     if (!err.empty()) return err;
   }
+  if (!o->bag.empty() && o->topic.empty()) return "--bag needs --topic";
+  if (o->bag.empty() && !o->topic.empty()) return "--topic goes with --bag";
+  if (!o->bag.empty() && !o->path.empty()) return "give --path or --bag, not both";
   return "";
 }
 
@@ -168,6 +178,7 @@ int main(int argc, char** argv) {
     const std::string bad = config.check();
     if (!bad.empty()) throw ConfigError(bad);
     if (!opt.path.empty()) path = ScalpelPath::read(opt.path);
+    if (!opt.bag.empty()) path = readBagPath(opt.bag, opt.topic, config.frame_id);
     tissue.emplace(config, loadTissueMesh(config));
   } catch (const std::exception& e) {
     std::cerr << "cut_replay: " << e.what() << "\n";

@@ -1,0 +1,120 @@
+// cut_replay --bag: a recorded session (PoseStamped in a rosbag) replays offline exactly as the
+// same poses given as a CSV path; bad bags are refused with a message and exit status 2.
+#include <geometry_msgs/PoseStamped.h>
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <std_msgs/String.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "tissue_cut/cut/scalpel_path.hpp"
+
+using namespace tissue_cut;
+
+namespace {
+
+const std::string kSource = TISSUE_CUT_SOURCE_DIR;
+const std::string kIncision = kSource + "/meshes/paths/incision_block.csv";
+
+struct Outcome {
+  int status;
+  std::string output;
+};
+
+Outcome replay(const std::string& args) {
+  Outcome r{-1, ""};
+  FILE* pipe = popen((std::string(TISSUE_CUT_REPLAY) + " " + args + " 2>&1").c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), pipe)) r.output += buf.data();
+  const int raw = pclose(pipe);
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return r;
+}
+
+nlohmann::json stats(const std::string& file) {
+  std::ifstream in(file);
+  return nlohmann::json::parse(in);
+}
+
+/// Writes the rows of `path` as PoseStamped on /tissue/scalpel_pose, stamped from t0 [s].
+void writeBag(const std::string& file, const ScalpelPath& path, double t0,
+              const std::string& frame = "world") {
+  rosbag::Bag bag(file, rosbag::bagmode::Write);
+  for (const ToolPose& p : path.poses()) {
+    geometry_msgs::PoseStamped m;
+    m.header.stamp = ros::Time(t0 + p.t);
+    m.header.frame_id = frame;
+    m.pose.position.x = p.position.x();
+    m.pose.position.y = p.position.y();
+    m.pose.position.z = p.position.z();
+    m.pose.orientation.x = p.orientation.x();
+    m.pose.orientation.y = p.orientation.y();
+    m.pose.orientation.z = p.orientation.z();
+    m.pose.orientation.w = p.orientation.w();
+    bag.write("/tissue/scalpel_pose", m.header.stamp, m);
+  }
+  std_msgs::String other;
+  other.data = "not a pose";
+  bag.write("/chatter", ros::Time(t0), other);
+}
+
+}  // namespace
+
+TEST(CutReplayBag, ReplaysARecordedSessionLikeTheSamePathFile) {
+  const std::string dir = testing::TempDir();
+  const std::string bag = dir + "incision.bag";
+  writeBag(bag, ScalpelPath::read(kIncision), 1000.0);
+  // A collapse budget in microseconds depends on the machine's speed; unbounded is exact.
+  const std::string config = dir + "unbounded.yaml";
+  {
+    std::ofstream yaml(config);
+    yaml << "collapse:\n  budget_us: 0\n";
+  }
+  const std::string common = " --config " + config + " --no-physics --quiet";
+  const Outcome from_csv = replay("--path " + kIncision + common + " --stats " + dir + "csv.json");
+  ASSERT_EQ(from_csv.status, 0) << from_csv.output;
+  const Outcome from_bag = replay("--bag " + bag + " --topic /tissue/scalpel_pose --check" + common +
+                                  " --stats " + dir + "bag.json");
+  ASSERT_EQ(from_bag.status, 0) << from_bag.output;
+  const nlohmann::json a = stats(dir + "csv.json"), b = stats(dir + "bag.json");
+  EXPECT_GT(b["cut"]["cut_tetrahedra"].get<int>(), 100);
+  EXPECT_EQ(a["cut"]["cut_tetrahedra"], b["cut"]["cut_tetrahedra"]);
+  EXPECT_EQ(a["cut"]["created_tetrahedra"], b["cut"]["created_tetrahedra"]);
+  EXPECT_EQ(a["mesh"], b["mesh"]);
+  // Deterministic: the same bag twice gives the same figures.
+  const Outcome again =
+      replay("--bag " + bag + " --topic /tissue/scalpel_pose" + common + " --stats " + dir + "bag2.json");
+  ASSERT_EQ(again.status, 0) << again.output;
+  EXPECT_EQ(stats(dir + "bag2.json")["mesh"], b["mesh"]);
+}
+
+TEST(CutReplayBag, RefusesBadBagsNamingTheProblem) {
+  const std::string dir = testing::TempDir();
+  const std::string bag = dir + "refusals.bag";
+  writeBag(bag, ScalpelPath::read(kIncision), 5.0);
+  const std::string elsewhere = dir + "elsewhere.bag";
+  writeBag(elsewhere, ScalpelPath::read(kIncision), 5.0, "camera");
+  {
+    std::ofstream junk(dir + "junk.bag");
+    junk << "not a bag at all";
+  }
+  struct Case {
+    std::string args, expect;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"--bag " + dir + "missing.bag --topic /x", "missing.bag"},
+           {"--bag " + dir + "junk.bag --topic /x", "junk.bag"},
+           {"--bag " + bag + " --topic /nothing_here", "/nothing_here"},
+           {"--bag " + bag + " --topic /chatter", "std_msgs/String"},
+           {"--bag " + elsewhere + " --topic /tissue/scalpel_pose", "camera"}}) {
+    const Outcome r = replay(c.args + " --no-physics --quiet");
+    EXPECT_EQ(r.status, 2) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.expect), std::string::npos) << c.args << "\n" << r.output;
+  }
+  EXPECT_EQ(replay("--bag " + bag).status, 1);  // --topic missing: usage
+}
