@@ -111,6 +111,7 @@ class Cutter {
   std::vector<std::vector<int>> groupsAround(int v) const;
   std::set<int> safeSplits(const std::vector<int>& verts);
   int addSteiner(const Pending& p, ChangeRecord* change);
+  void dropUnusedSteiner(int* steiner, ChangeRecord* change);
   void setPieces(int pid, const std::vector<int>& pieces);
   void replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids);

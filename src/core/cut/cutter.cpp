@@ -325,6 +325,17 @@ void Cutter::subdivide(int pid, ChangeRecord* change) {
   const std::vector<int> old = p.pieces;
   replace(old, split.tets, change, nullptr, &ids);
   setPieces(pid, ids);
+  dropUnusedSteiner(&p.steiner, change);
+}
+
+void Cutter::dropUnusedSteiner(int* steiner, ChangeRecord* change) {
+  // A centroid vertex one subdivision needed may be left out by the next (more points came) or
+  // by the final split: a vertex no tet holds must go.
+  if (*steiner < 0 || !mesh_->vertexAlive(*steiner) || !mesh_->vertexTets(*steiner).empty()) return;
+  ChangeRecord local;  // appended, so that a centroid added within this change never existed
+  mesh_->removeVertex(*steiner, &local);
+  change->append(local);
+  *steiner = -1;
 }
 
 void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) {
@@ -348,6 +359,7 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
     std::vector<int> ids;
     const std::vector<int> from(split.tets.size(), -1);
     replace(p.pieces, split.tets, change, &from, &ids);
+    dropUnusedSteiner(&p.steiner, change);
     ++counts_.cut_tetrahedra;
     counts_.created_tetrahedra += static_cast<int>(ids.size());
     for (const TetVerts& t : split.tets) touched->insert(touched->end(), t.begin(), t.end());
