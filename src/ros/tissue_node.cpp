@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <unistd.h>
 
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
@@ -37,6 +38,16 @@ T optionalParameter(const ros::NodeHandle& pnh, const std::string& key, const T&
   if (!pnh.getParam(key, value))
     throw ConfigError("parameter " + pnh.resolveName(key) + ": a value of the wrong type");
   return value;
+}
+
+// This process's resident memory [MiB] from /proc, or 0 where there is none.
+double residentMegabytes() {
+  FILE* f = std::fopen("/proc/self/statm", "r");
+  if (!f) return 0.0;
+  long pages = 0, resident = 0;
+  const int n = std::fscanf(f, "%ld %ld", &pages, &resident);
+  std::fclose(f);
+  return n == 2 ? resident * (sysconf(_SC_PAGESIZE) / 1048576.0) : 0.0;
 }
 
 double seconds(std::chrono::steady_clock::duration d) {
@@ -102,6 +113,7 @@ TissueNode::TissueNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   reset_srv_ = pnh_.advertiseService("reset", &TissueNode::resetService, this);
   load_srv_ = pnh_.advertiseService("load_mesh", &TissueNode::loadMeshService, this);
   save_srv_ = pnh_.advertiseService("save_mesh", &TissueNode::saveMeshService, this);
+  validate_srv_ = pnh_.advertiseService("validate", &TissueNode::validateService, this);
 
   reconfigure_server_ =
       std::make_unique<dynamic_reconfigure::Server<TissueConfig>>(reconfigure_mutex_, pnh_);
@@ -299,6 +311,7 @@ void TissueNode::publishTimer(const ros::SteadyTimerEvent&) {
       stats.rate_hz = static_cast<double>(tick_starts_.size());
       stats.deadline_misses = static_cast<std::uint32_t>(deadline_misses_);
       stats.ticks = ticks_;
+      stats.memory_rss_mb = residentMegabytes();
     }
     if (want_markers) {
       std::lock_guard<std::mutex> marker_lock(marker_mutex_);
@@ -409,6 +422,16 @@ bool TissueNode::saveMeshService(SaveMesh::Request& req, SaveMesh::Response& res
   res.success = true;
   res.message = "wrote " + req.path + ": " + std::to_string(data.V.rows()) + " vertices, " +
                 std::to_string(data.T.rows()) + " tetrahedra";
+  return true;
+}
+
+bool TissueNode::validateService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  std::lock_guard<std::mutex> lock(model_mutex_);
+  const std::string err = tissue_->validate();
+  res.success = err.empty();
+  res.message = err.empty() ? "valid: " + std::to_string(tissue_->mesh().numTets()) +
+                                  " tetrahedra, closed 2-manifold boundary"
+                            : err;
   return true;
 }
 

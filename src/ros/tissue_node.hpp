@@ -71,6 +71,7 @@ class TissueNode {
   bool resetService(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool loadMeshService(LoadMesh::Request& req, LoadMesh::Response& res);
   bool saveMeshService(SaveMesh::Request& req, SaveMesh::Response& res);
+  bool validateService(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   void reconfigure(TissueConfig& cfg, uint32_t level);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void makeInteractiveScalpel();
@@ -102,7 +103,7 @@ class TissueNode {
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   ros::Subscriber pose_sub_;
   ros::Publisher markers_pub_, stats_pub_;
-  ros::ServiceServer reset_srv_, load_srv_, save_srv_;
+  ros::ServiceServer reset_srv_, load_srv_, save_srv_, validate_srv_;
   ros::SteadyTimer publish_timer_;
   diagnostic_updater::Updater diagnostics_;
   std::unique_ptr<dynamic_reconfigure::Server<TissueConfig>> reconfigure_server_;
