@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <queue>
+#include <unordered_set>
 #include <vector>
 
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -48,6 +49,18 @@ class CollapseQueue {
     long long stamp;  // the sum of the two vertices' stamps when queued
     bool operator<(const Entry& o) const { return quality > o.quality; }  // min-heap
   };
+  struct Key {  // an entry's edge and stamp: the same one is never queued twice
+    int a, b;
+    long long stamp;
+    bool operator==(const Key& o) const { return a == o.a && b == o.b && stamp == o.stamp; }
+  };
+  struct KeyHash {
+    std::size_t operator()(const Key& k) const {
+      return std::hash<long long>()((static_cast<long long>(k.a) * 1000003LL + k.b) * 1000003LL +
+                                    k.stamp);
+    }
+  };
+  static Key keyOf(const Entry& e) { return {std::min(e.a, e.b), std::max(e.a, e.b), e.stamp}; }
   void queueTet(int t);
   long long stampOf(int a, int b) const;
 
@@ -56,6 +69,7 @@ class CollapseQueue {
   std::priority_queue<Entry> heap_;
   std::vector<long long> vertex_stamp_;  // bumped when a vertex's star changes
   std::vector<Entry> waiting_;           // busy this tick, back in the heap next tick
+  std::unordered_set<Key, KeyHash> queued_;  // keys in heap_ or waiting_
   CollapseCounts counts_;
 };
 

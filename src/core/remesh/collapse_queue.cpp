@@ -15,6 +15,7 @@ CollapseQueue::CollapseQueue(TetMesh* mesh, double tau, double budget_us)
 void CollapseQueue::clear() {
   heap_ = {};
   waiting_.clear();
+  queued_.clear();
   vertex_stamp_.clear();
   counts_ = CollapseCounts{};
 }
@@ -40,8 +41,11 @@ void CollapseQueue::queueTet(int t) {
   std::sort(edges.begin(), edges.end());
   for (int k = 0; k < 6; ++k) {
     const int e = edges[k].second;
-    heap_.push({q + 1e-9 * k, tv[kTetEdge[e][0]], tv[kTetEdge[e][1]],
-                stampOf(tv[kTetEdge[e][0]], tv[kTetEdge[e][1]])});
+    const Entry entry{q + 1e-9 * k, tv[kTetEdge[e][0]], tv[kTetEdge[e][1]],
+                      stampOf(tv[kTetEdge[e][0]], tv[kTetEdge[e][1]])};
+    // Tets around one edge queue it alike; once is enough (edges next to a cut that has not
+    // opened may wait for many ticks, and copies would pile up).
+    if (queued_.insert(keyOf(entry)).second) heap_.push(entry);
   }
 }
 
@@ -66,13 +70,15 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   while (!heap_.empty() && (!attempted || budget_us_ <= 0 || elapsed_us() < budget_us_)) {
     const Entry e = heap_.top();
     heap_.pop();
-    if (!mesh_->vertexAlive(e.a) || !mesh_->vertexAlive(e.b)) continue;
-    if (e.stamp != stampOf(e.a, e.b)) continue;  // the neighbourhood changed since: stale
-    if (mesh_->edgeTets(e.a, e.b).empty()) continue;
-    if (busy(e.a) || busy(e.b)) {
-      waiting_.push_back(e);
+    const bool gone = !mesh_->vertexAlive(e.a) || !mesh_->vertexAlive(e.b) ||
+                      e.stamp != stampOf(e.a, e.b)  // the neighbourhood changed since: stale
+                      || mesh_->edgeTets(e.a, e.b).empty();
+    if (!gone && (busy(e.a) || busy(e.b))) {
+      waiting_.push_back(e);  // keeps its place in queued_
       continue;
     }
+    queued_.erase(keyOf(e));
+    if (gone) continue;
     attempted = true;
     ChangeRecord local;
     CollapseCheck check;
