@@ -138,6 +138,12 @@ void printSummary(const tissue_cut::Statistics& s) {
               s.region.tetrahedra, s.region.quality_mean, s.region.quality_min, s.region.below_tau);
   std::printf("physics     mass %.6g kg, kinetic energy %.3g J, %d instabilities\n",
               s.physics.mass_total, s.physics.kinetic_energy, s.physics.instabilities);
+  if (s.physics.steps > 0)
+    std::printf(
+        "            %lld steps, %.3f ms a step, %.1f CG iterations a step, %d springs, %.2f ns per "
+        "spring per CG iteration\n",
+        static_cast<long long>(s.physics.steps), s.physics.time_ms / s.physics.steps,
+        s.physics.cg_iterations_mean, s.physics.springs, s.physics.ns_per_spring_iteration);
   std::printf("ticks       %lld at %.0f Hz: p50 %.4f ms, p99 %.4f ms, max %.4f ms, %lld misses\n",
               static_cast<long long>(s.ticks.count), s.ticks.rate_hz, s.ticks.p50_ms,
               s.ticks.p99_ms, s.ticks.max_ms, static_cast<long long>(s.ticks.deadline_misses));
@@ -217,6 +223,8 @@ int main(int argc, char** argv) {
 
   Statistics stats = tissue->statistics();
   stats.ticks.rate_hz = config.rate;
+  stats.ticks.wall_s = wall_s;
+  stats.ticks.real_time_factor = wall_s > 0 ? (ticks + 1) * dt / wall_s : 0.0;
   try {
     if (!opt.out.empty()) writeMesh(opt.out, tissue->exportMesh());
     if (!opt.stats.empty()) {
@@ -238,7 +246,7 @@ int main(int argc, char** argv) {
     std::printf(" separated vertices %d, vertices waiting to separate %d\n",
                 tissue->cutter().counts().separated_vertices, tissue->cutter().numDeferred());
     std::printf("replay      %lld ticks (%.3f simulated s) in %.3f s wall: real-time factor %.2f\n",
-                ticks + 1, (ticks + 1) * dt, wall_s, wall_s > 0 ? (ticks + 1) * dt / wall_s : 0.0);
+                ticks + 1, (ticks + 1) * dt, wall_s, stats.ticks.real_time_factor);
   }
   return 0;
 }
