@@ -66,6 +66,9 @@ struct Statistics {
     std::int64_t count = 0;
     double rate_hz = 0.0, p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
     std::int64_t deadline_misses = 0;
+    /// The same percentiles in the thread's CPU time (what the tick cost, without the time the
+    /// thread waited for a core), set by a driver that measures it (cut_replay).
+    double cpu_p50_ms = 0.0, cpu_p99_ms = 0.0, cpu_max_ms = 0.0, cpu_total_ms = 0.0;
     double wall_s = 0.0;            ///< the whole replay, set by its driver
     double real_time_factor = 0.0;  ///< simulated over wall time (> 1: faster than real time)
   } ticks;
