@@ -110,12 +110,15 @@ TetVerts Cutter::cornersOf(const Coarse& c) const {
 
 std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
   std::vector<Coarse> out;
-  std::unordered_set<int> seen_pending;
-  for (int t : grid_.query(*mesh_, lo, hi)) {
+  grid_.query(*mesh_, lo, hi, &near_scratch_);
+  out.reserve(near_scratch_.size());
+  std::vector<int> seen_pending;  // few: the tets the blade is inside
+  for (int t : near_scratch_) {
     const int pid = pending_of_[t];
     if (pid < 0) {
       out.push_back({-1, t});
-    } else if (seen_pending.insert(pid).second) {
+    } else if (std::find(seen_pending.begin(), seen_pending.end(), pid) == seen_pending.end()) {
+      seen_pending.push_back(pid);
       out.push_back({pid, -1});
     }
   }
@@ -610,13 +613,22 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   hi.array() += snap_distance_;
   const std::vector<Coarse> near = coarseNear(lo, hi);
   std::vector<TetVerts> corners;
+  corners.reserve(near.size());
   for (const Coarse& c : near) corners.push_back(cornersOf(c));
   for (const TetVerts& tv : corners)
     for (int v : tv) trySnap(v, tris);
-  std::set<std::pair<int, int>> edges;
+  // The edges in increasing order, each once (sorted, as a std::set would give them).
+  std::vector<std::pair<int, int>>& edges = edge_scratch_;
+  edges.clear();
   for (const TetVerts& tv : corners)
     for (const auto& e : kTetEdge)
-      edges.insert({std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]])});
+      edges.emplace_back(std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]]));
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  // An edge can cross the swept quad only where its box meets the quad's box.
+  const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_);
+  const Vec3 quad_lo = lo.array() + snap_distance_ - slack.array();
+  const Vec3 quad_hi = hi.array() - snap_distance_ + slack.array();
   // The ribbon's own edges (the tip's and base's paths, and the blade where the stroke began)
   // are its front: an edge crossing right on the front is left whole and the front's face points
   // take its place, so a front running along mesh faces makes no points on their edges.
@@ -635,6 +647,9 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   for (const auto& [a, b] : edges) {
     if (on_cut_.count(a) || on_cut_.count(b)) continue;
     if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b)) continue;
+    if ((mesh_->current(a).cwiseMin(mesh_->current(b)).array() > quad_hi.array()).any() ||
+        (mesh_->current(a).cwiseMax(mesh_->current(b)).array() < quad_lo.array()).any())
+      continue;
     for (const Triangle& tri : tris) {
       if (triangleArea(tri) <= tiny) continue;
       double s;
@@ -661,11 +676,16 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
     seg[1] += shift;
     Vec3 lo = seg[0].cwiseMin(seg[1]), hi = seg[0].cwiseMax(seg[1]);
     const std::vector<Coarse> near = coarseNear(lo, hi);
-    std::set<std::array<int, 3>> faces;
+    // The faces in increasing order of their (oriented) triples, each once, as a std::set would
+    // give them; the first orientation of a face met in that order is the one taken.
+    std::vector<std::array<int, 3>>& faces = face_scratch_;
+    faces.clear();
     for (const Coarse& c : near) {
       const TetVerts tv = cornersOf(c);
-      for (const auto& f : kTetFace) faces.insert({tv[f[0]], tv[f[1]], tv[f[2]]});
+      for (const auto& f : kTetFace) faces.push_back({tv[f[0]], tv[f[1]], tv[f[2]]});
     }
+    std::sort(faces.begin(), faces.end());
+    faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
     std::set<std::array<int, 3>> done;
     for (const auto& face : faces) {
       if (!done.insert(sortedFace(face[0], face[1], face[2])).second) continue;
