@@ -61,6 +61,16 @@ void BM_GridQuery(benchmark::State& state) {
 }
 BENCHMARK(BM_GridQuery)->Arg(5100)->Arg(20000)->Arg(80000);
 
+// Rebuilding the grid (when the tissue drifted half a mean edge since it was built).
+void BM_GridBuild(benchmark::State& state) {
+  const MeshData block = blockOf(static_cast<int>(state.range(0)));
+  const TetMesh mesh(block.V, block.T);
+  const double cell = cellFor(static_cast<int>(state.range(0)));
+  TetGrid grid;
+  for (auto _ : state) grid.build(mesh, 2.0 * cell, cell);
+}
+BENCHMARK(BM_GridBuild)->Arg(5100)->Arg(20000)->Arg(80000)->Unit(benchmark::kMicrosecond);
+
 // One cut tet through the split table: 3 edge points around a corner (complete, 4 tets) and 4
 // edge points (complete, 6 tets).
 void splitBench(benchmark::State& state, const std::array<int, 6>& cut_edges) {

@@ -70,7 +70,11 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
   while (count(cell_) > budget) cell_ *= 1.25;
   origin_ = lo;
   for (int d = 0; d < 3; ++d) dims_[d] = static_cast<int>(std::floor(extent[d] / cell_)) + 1;
-  cells_.assign(static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2], {});
+  // Emptied cells keep their capacity: a rebuild of a grid of the same size allocates nothing.
+  const std::size_t cells = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+  if (cells_.size() > cells) cells_.resize(cells);
+  for (auto& c : cells_) c.clear();
+  cells_.resize(cells);
   entries_ = 0;
   for (int t = 0; t < mesh.tetSlots(); ++t)
     if (mesh.tetAlive(t)) insert(mesh, t);
