@@ -135,6 +135,9 @@ class Cutter {
   CutCounts counts_;
   // Scratch buffers of one tick, kept for their capacity.
   std::vector<int> near_scratch_;
+  std::vector<int> swept_near_;  // this tick's sweep search, while no tet has been replaced
+  Vec3 swept_lo_ = Vec3::Zero(), swept_hi_ = Vec3::Zero();
+  bool swept_valid_ = false;
   std::vector<std::pair<int, int>> edge_scratch_;
   std::vector<std::array<int, 3>> face_scratch_;
 };

@@ -41,6 +41,7 @@ Cutter::Cutter(TetMesh* mesh, const CutterOptions& options) : mesh_(mesh), optio
 }
 
 void Cutter::reset() {
+  swept_valid_ = false;
   pending_.clear();
   on_cut_.clear();
   marked_.clear();
@@ -109,8 +110,25 @@ TetVerts Cutter::cornersOf(const Coarse& c) const {
 }
 
 std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
+  if (swept_valid_ && (lo.array() >= swept_lo_.array()).all() &&
+      (hi.array() <= swept_hi_.array()).all()) {
+    // Inside this tick's sweep box, whose tets no change since has replaced: filter those,
+    // exactly as the grid would (live tets whose current box meets [lo, hi], in id order).
+    near_scratch_.clear();
+    for (int t : swept_near_) {
+      const TetVerts& tv = mesh_->tet(t);
+      Vec3 tlo = mesh_->current(tv[0]), thi = tlo;
+      for (int i = 1; i < 4; ++i) {
+        tlo = tlo.cwiseMin(mesh_->current(tv[i]));
+        thi = thi.cwiseMax(mesh_->current(tv[i]));
+      }
+      if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all())
+        near_scratch_.push_back(t);
+    }
+  } else {
+    grid_.query(*mesh_, lo, hi, &near_scratch_);
+  }
   std::vector<Coarse> out;
-  grid_.query(*mesh_, lo, hi, &near_scratch_);
   out.reserve(near_scratch_.size());
   std::vector<int> seen_pending;  // few: the tets the blade is inside
   for (int t : near_scratch_) {
@@ -612,6 +630,12 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   lo.array() -= snap_distance_;
   hi.array() += snap_distance_;
   const std::vector<Coarse> near = coarseNear(lo, hi);
+  // The fronts of this tick lie in this box (moved by less than the snap distance): their
+  // searches filter these tets, as long as no tet is replaced before (see step()).
+  swept_near_ = near_scratch_;
+  swept_lo_ = lo;
+  swept_hi_ = hi;
+  swept_valid_ = true;
   std::vector<TetVerts> corners;
   corners.reserve(near.size());
   for (const Coarse& c : near) corners.push_back(cornersOf(c));
@@ -701,6 +725,7 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
 std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
   const auto start = std::chrono::steady_clock::now();
   std::string warning;
+  swept_valid_ = false;
   // Whether the tissue drifted past the grid's margin is checked on one tick in 64 only (a scan
   // of all vertices): between checks the margin (one mean edge) absorbs the motion.
   if (blade && ++ticks_since_grid_check_ >= 64) {
@@ -731,6 +756,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     crossFront({{blade->base, blade->tip}}, Vec3::Zero(), change);
     stroke_start_ = true;
   } else {
+    // Sweep and fronts only add points and mark tets pending; no tet is replaced until
+    // finalizeLeft(), so the fronts may reuse the sweep's search.
     sweep(*previous_, *blade, change);
     const Vec3 motion = 0.5 * ((blade->base - previous_->base) + (blade->tip - previous_->tip));
     if (motion.norm() > 1e-9 * mean_edge_) last_motion_ = motion;
@@ -739,6 +766,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
       stroke_start_ = false;
     crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
     crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
+    swept_valid_ = false;
   }
   previous_ = blade;
   finalizeLeft(blade, change);
