@@ -166,6 +166,21 @@ void BM_PhysicsStep(benchmark::State& state) {
 }
 BENCHMARK(BM_PhysicsStep)->Arg(5100)->Arg(20000)->Arg(80000)->Unit(benchmark::kMicrosecond);
 
+// What the CG tolerance costs: the 20k block with relative tolerance 1e-6 (default), 1e-4, 1e-3.
+void BM_PhysicsStepTolerance(benchmark::State& state) {
+  const MeshData block = blockOf(20000);
+  TetMesh mesh(block.V, block.T);
+  MassSpringParams params;
+  params.cg_tolerance = std::pow(10.0, -static_cast<double>(state.range(0)));
+  MassSpring physics(&mesh, params);
+  for (int k = 0; k < 50; ++k) physics.step(1e-3);
+  const long long it0 = physics.totalIterations();
+  for (auto _ : state) physics.step(1e-3);
+  state.counters["cg_iterations"] = benchmark::Counter(
+      static_cast<double>(physics.totalIterations() - it0) / state.iterations());
+}
+BENCHMARK(BM_PhysicsStepTolerance)->Arg(6)->Arg(4)->Arg(3)->Unit(benchmark::kMicrosecond);
+
 // Surface triangles with normals and colours into reused float buffers (markers at 30 Hz).
 void BM_SurfaceBuffers(benchmark::State& state) {
   const MeshData block = blockOf(static_cast<int>(state.range(0)));

@@ -63,7 +63,7 @@ class MassSpring {
   void resize();
   void updateMass(int v);
   void updateSpring(int a, int b);
-  /// Symmetric 3x3 block (xx, xy, xz, yy, yz, zz), already scaled by h^2.
+  /// Symmetric 3x3 block (xx, xy, xz, yy, yz, zz); a spring's is kept scaled by h^2.
   struct Block {
     double xx, xy, xz, yy, yz, zz;
   };
@@ -84,7 +84,7 @@ class MassSpring {
   // The implicit step's work space, kept between steps so that a tick allocates nothing.
   std::vector<Block> blocks_;  // per-spring h^2-scaled stiffness blocks of this step
   std::vector<Vec3> b_, r_, z_, p_, ap_, dv_, x0_;
-  std::vector<Eigen::Matrix3d> inv_diag_;  // block-Jacobi preconditioner, zero for fixed/dead
+  std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
   std::vector<int> fixed_list_;            // the fixed vertices of this step
   double mass_damping_ = 1.0;              // 1 + h alpha of this step
   int instabilities_ = 0, last_iterations_ = 0;

@@ -15,6 +15,35 @@ long long edgeKey(int a, int b) {
   return (static_cast<long long>(a) << 32) | static_cast<unsigned>(b);
 }
 
+// k x for a symmetric block k = (xx, xy, xz, yy, yz, zz).
+template <class Sym>
+Vec3 apply(const Sym& k, const Vec3& x) {
+  return Vec3(k.xx * x.x() + k.xy * x.y() + k.xz * x.z(), k.xy * x.x() + k.yy * x.y() + k.yz * x.z(),
+              k.xz * x.x() + k.yz * x.y() + k.zz * x.z());
+}
+
+template <class Sym>
+void addTo(Sym* m, const Sym& k) {
+  m->xx += k.xx;
+  m->xy += k.xy;
+  m->xz += k.xz;
+  m->yy += k.yy;
+  m->yz += k.yz;
+  m->zz += k.zz;
+}
+
+// The inverse of a symmetric block by cofactors; false when it is not positive definite.
+template <class Sym>
+bool invert(Sym* m) {
+  const double a = m->xx, b = m->xy, c = m->xz, d = m->yy, e = m->yz, f = m->zz;
+  const double A = d * f - e * e, B = c * e - b * f, C = b * e - c * d;
+  const double det = a * A + b * B + c * C;
+  if (!(det > 0) || !(a > 0)) return false;
+  const double s = 1.0 / det;
+  *m = {A * s, B * s, C * s, (a * f - c * c) * s, (b * c - a * e) * s, (a * d - b * b) * s};
+  return true;
+}
+
 }  // namespace
 
 MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
@@ -187,10 +216,7 @@ double MassSpring::multiply(const std::vector<Vec3>& p, std::vector<Vec3>* out_v
       pa = pv[a];
       sum.setZero();
     }
-    const Block& k = blocks[i];
-    const double dx = pa.x() - pv[b].x(), dy = pa.y() - pv[b].y(), dz = pa.z() - pv[b].z();
-    const Vec3 r(k.xx * dx + k.xy * dy + k.xz * dz, k.xy * dx + k.yy * dy + k.yz * dz,
-                 k.xz * dx + k.yz * dy + k.zz * dz);
+    const Vec3 r = apply(blocks[i], Vec3(pa - pv[b]));
     sum += r;
     out[b] -= r;
   }
@@ -218,7 +244,8 @@ bool MassSpring::stepImplicit(double dt) {
     const bool alive = mesh_->vertexAlive(v);
     b_[v] = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
                   : Vec3::Zero();
-    inv_diag_[v] = (mass_damping_ * mass_[v]) * Eigen::Matrix3d::Identity();
+    const double md = mass_damping_ * mass_[v];
+    inv_diag_[v] = {md, 0.0, 0.0, md, 0.0, md};
   }
   const Vec3* x = mesh_->currentPositions().data();
   const Vec3* u = mesh_->velocities().data();
@@ -229,13 +256,7 @@ bool MassSpring::stepImplicit(double dt) {
   auto flush = [&] {
     if (run < 0) return;
     b_[run] += run_b;
-    Eigen::Matrix3d& m = inv_diag_[run];
-    m(0, 0) += run_k.xx;
-    m(0, 1) += run_k.xy;
-    m(0, 2) += run_k.xz;
-    m(1, 1) += run_k.yy;
-    m(1, 2) += run_k.yz;
-    m(2, 2) += run_k.zz;
+    addTo(&inv_diag_[run], run_k);
   };
   for (std::size_t i = 0; i < springs_.size(); ++i) {
     const Spring& s = springs_[i];
@@ -266,21 +287,11 @@ bool MassSpring::stepImplicit(double dt) {
       k = {kk, 0.0, 0.0, kk, 0.0, kk};
     }
     const Vec3 dvel = u[s.b] - u[s.a];
-    const Vec3 kv(k.xx * dvel.x() + k.xy * dvel.y() + k.xz * dvel.z(),
-                  k.xy * dvel.x() + k.yy * dvel.y() + k.yz * dvel.z(),
-                  k.xz * dvel.x() + k.yz * dvel.y() + k.zz * dvel.z());
-    const Vec3 fb = f + inv_dt * kv;
+    const Vec3 fb = f + inv_dt * apply(k, dvel);
     run_b += fb;
     b_[s.b] -= fb;
-    run_k = {run_k.xx + k.xx, run_k.xy + k.xy, run_k.xz + k.xz,
-             run_k.yy + k.yy, run_k.yz + k.yz, run_k.zz + k.zz};
-    Eigen::Matrix3d& m = inv_diag_[s.b];
-    m(0, 0) += k.xx;
-    m(0, 1) += k.xy;
-    m(0, 2) += k.xz;
-    m(1, 1) += k.yy;
-    m(1, 2) += k.yz;
-    m(2, 2) += k.zz;
+    addTo(&run_k, k);
+    addTo(&inv_diag_[s.b], k);
   }
   flush();
   dv_ = warm_;
@@ -293,15 +304,7 @@ bool MassSpring::stepImplicit(double dt) {
       dv_[v].setZero();
     }
     // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
-    Eigen::Matrix3d& m = inv_diag_[v];
-    if (held || !(m.trace() > 0)) {
-      m.setZero();
-    } else {
-      m(1, 0) = m(0, 1);
-      m(2, 0) = m(0, 2);
-      m(2, 1) = m(1, 2);
-      m = m.inverse().eval();
-    }
+    if (held || !invert(&inv_diag_[v])) inv_diag_[v] = {0, 0, 0, 0, 0, 0};
   }
   // Preconditioned conjugate gradients, warm-started from the last step's answer.
   multiply(dv_, &ap_);
@@ -309,7 +312,7 @@ bool MassSpring::stepImplicit(double dt) {
   for (int v = 0; v < n; ++v) {
     r_[v] = b_[v] - ap_[v];
     b_norm += b_[v].squaredNorm();
-    z_[v] = inv_diag_[v] * r_[v];
+    z_[v] = apply(inv_diag_[v], r_[v]);
     rz += r_[v].dot(z_[v]);
   }
   p_ = z_;
@@ -327,7 +330,7 @@ bool MassSpring::stepImplicit(double dt) {
     for (int v = 0; v < n; ++v) {
       dv_[v] += alpha * p_[v];
       r_[v] -= alpha * ap_[v];
-      z_[v] = inv_diag_[v] * r_[v];
+      z_[v] = apply(inv_diag_[v], r_[v]);
       rz_next += r_[v].dot(z_[v]);
       rr += r_[v].squaredNorm();
     }
