@@ -177,8 +177,8 @@ void BM_PhysicsStepTolerance(benchmark::State& state) {
   for (int k = 0; k < 50; ++k) physics.step(1e-3);
   const long long it0 = physics.totalIterations();
   for (auto _ : state) physics.step(1e-3);
-  state.counters["cg_iterations"] = benchmark::Counter(
-      static_cast<double>(physics.totalIterations() - it0) / state.iterations());
+  state.counters["cg_iterations"] =
+      benchmark::Counter(static_cast<double>(physics.totalIterations() - it0) / state.iterations());
 }
 BENCHMARK(BM_PhysicsStepTolerance)->Arg(6)->Arg(4)->Arg(3)->Unit(benchmark::kMicrosecond);
 

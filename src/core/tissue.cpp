@@ -133,9 +133,9 @@ Statistics Tissue::statistics() const {
     s.physics.cg_iterations_mean =
         static_cast<double>(physics_->totalIterations()) / physics_->steps();
   if (physics_->totalIterations() > 0 && physics_->numSprings() > 0)
-    s.physics.ns_per_spring_iteration = 1e6 * physics_->timeMs() /
-                                        (static_cast<double>(physics_->totalIterations()) *
-                                         physics_->numSprings());
+    s.physics.ns_per_spring_iteration =
+        1e6 * physics_->timeMs() /
+        (static_cast<double>(physics_->totalIterations()) * physics_->numSprings());
   s.vertices = mesh_.numVertices();
   s.tetrahedra = mesh_.numTets();
   s.surface_triangles = mesh_.numBoundaryFaces();

@@ -1,9 +1,9 @@
 // cut_replay: replays a scalpel path over a tissue mesh offline, through the same Tissue::step as
 // the node, and reports the mesh and its statistics.
 #include <chrono>
-#include <ctime>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <optional>
@@ -148,7 +148,8 @@ void printSummary(const tissue_cut::Statistics& s) {
               s.physics.mass_total, s.physics.kinetic_energy, s.physics.instabilities);
   if (s.physics.steps > 0)
     std::printf(
-        "            %lld steps, %.3f ms a step, %.1f CG iterations a step, %d springs, %.2f ns per "
+        "            %lld steps, %.3f ms a step, %.1f CG iterations a step, %d springs, %.2f ns "
+        "per "
         "spring per CG iteration\n",
         static_cast<long long>(s.physics.steps), s.physics.time_ms / s.physics.steps,
         s.physics.cg_iterations_mean, s.physics.springs, s.physics.ns_per_spring_iteration);

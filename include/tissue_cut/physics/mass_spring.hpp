@@ -85,8 +85,8 @@ class MassSpring {
   std::vector<Block> blocks_;  // per-spring h^2-scaled stiffness blocks of this step
   std::vector<Vec3> b_, r_, z_, p_, ap_, dv_, x0_;
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
-  std::vector<int> fixed_list_;            // the fixed vertices of this step
-  double mass_damping_ = 1.0;              // 1 + h alpha of this step
+  std::vector<int> fixed_list_;  // the fixed vertices of this step
+  double mass_damping_ = 1.0;    // 1 + h alpha of this step
   int instabilities_ = 0, last_iterations_ = 0;
   long long steps_ = 0, total_iterations_ = 0;
   double time_ms_ = 0.0;

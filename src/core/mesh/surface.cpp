@@ -5,8 +5,7 @@
 namespace tissue_cut {
 
 void buildSurfaceBuffers(const TetMesh& mesh, SurfaceBuffers* out,
-                         const std::vector<unsigned char>* cut_flag,
-                         const SurfaceColors& colors) {
+                         const std::vector<unsigned char>* cut_flag, const SurfaceColors& colors) {
   const int faces = mesh.numBoundaryFaces();
   out->positions.resize(9 * static_cast<std::size_t>(faces));
   out->normals.resize(9 * static_cast<std::size_t>(faces));

@@ -19,7 +19,9 @@ FaceKey sortedFace(int a, int b, int c) {
   return k;
 }
 
-bool contains(const TetVerts& t, int v) { return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v); }
+bool contains(const TetVerts& t, int v) {
+  return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v);
+}
 
 int localIndex(const TetVerts& t, int v) {
   for (int i = 0; i < 4; ++i)

@@ -18,7 +18,8 @@ long long edgeKey(int a, int b) {
 // k x for a symmetric block k = (xx, xy, xz, yy, yz, zz).
 template <class Sym>
 Vec3 apply(const Sym& k, const Vec3& x) {
-  return Vec3(k.xx * x.x() + k.xy * x.y() + k.xz * x.z(), k.xy * x.x() + k.yy * x.y() + k.yz * x.z(),
+  return Vec3(k.xx * x.x() + k.xy * x.y() + k.xz * x.z(),
+              k.xy * x.x() + k.yy * x.y() + k.yz * x.z(),
               k.xz * x.x() + k.yz * x.y() + k.zz * x.z());
 }
 
