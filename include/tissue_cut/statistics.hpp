@@ -54,11 +54,23 @@ struct Statistics {
   struct {
     double mass_total = 0.0, kinetic_energy = 0.0;
     int instabilities = 0;
+    int springs = 0;
+    std::int64_t steps = 0;
+    double time_ms = 0.0;             ///< in all steps
+    double cg_iterations_mean = 0.0;  ///< per implicit step
+    /// Step time over (springs x CG iterations) [ns]: the cost of one spring in one iteration,
+    /// the set-up of the step included.
+    double ns_per_spring_iteration = 0.0;
   } physics;
   struct {
     std::int64_t count = 0;
     double rate_hz = 0.0, p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
     std::int64_t deadline_misses = 0;
+    /// The same percentiles in the thread's CPU time (what the tick cost, without the time the
+    /// thread waited for a core), set by a driver that measures it (cut_replay).
+    double cpu_p50_ms = 0.0, cpu_p99_ms = 0.0, cpu_max_ms = 0.0, cpu_total_ms = 0.0;
+    double wall_s = 0.0;            ///< the whole replay, set by its driver
+    double real_time_factor = 0.0;  ///< simulated over wall time (> 1: faster than real time)
   } ticks;
 
   /// The JSON layout of cut_replay --stats.

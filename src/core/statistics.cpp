@@ -66,10 +66,18 @@ nlohmann::json Statistics::toJson() const {
                  {"below_tau", region.below_tau}};
   j["physics"] = {{"mass_total", physics.mass_total},
                   {"kinetic_energy", physics.kinetic_energy},
-                  {"instabilities", physics.instabilities}};
-  j["ticks"] = {{"count", ticks.count},   {"rate_hz", ticks.rate_hz},
-                {"p50_ms", ticks.p50_ms}, {"p99_ms", ticks.p99_ms},
-                {"max_ms", ticks.max_ms}, {"deadline_misses", ticks.deadline_misses}};
+                  {"instabilities", physics.instabilities},
+                  {"springs", physics.springs},
+                  {"steps", physics.steps},
+                  {"time_ms", physics.time_ms},
+                  {"cg_iterations_mean", physics.cg_iterations_mean},
+                  {"ns_per_spring_iteration", physics.ns_per_spring_iteration}};
+  j["ticks"] = {{"count", ticks.count},           {"rate_hz", ticks.rate_hz},
+                {"p50_ms", ticks.p50_ms},         {"p99_ms", ticks.p99_ms},
+                {"max_ms", ticks.max_ms},         {"deadline_misses", ticks.deadline_misses},
+                {"cpu_p50_ms", ticks.cpu_p50_ms}, {"cpu_p99_ms", ticks.cpu_p99_ms},
+                {"cpu_max_ms", ticks.cpu_max_ms}, {"cpu_total_ms", ticks.cpu_total_ms},
+                {"wall_s", ticks.wall_s},         {"real_time_factor", ticks.real_time_factor}};
   return j;
 }
 

@@ -144,6 +144,16 @@ Statistics Tissue::statistics() const {
   s.physics.mass_total = physics_->totalMass();
   s.physics.kinetic_energy = physics_->kineticEnergy();
   s.physics.instabilities = physics_->instabilities();
+  s.physics.springs = physics_->numSprings();
+  s.physics.steps = physics_->steps();
+  s.physics.time_ms = physics_->timeMs();
+  if (physics_->steps() > 0)
+    s.physics.cg_iterations_mean =
+        static_cast<double>(physics_->totalIterations()) / physics_->steps();
+  if (physics_->totalIterations() > 0 && physics_->numSprings() > 0)
+    s.physics.ns_per_spring_iteration =
+        1e6 * physics_->timeMs() /
+        (static_cast<double>(physics_->totalIterations()) * physics_->numSprings());
   s.vertices = mesh_.numVertices();
   s.tetrahedra = mesh_.numTets();
   s.surface_triangles = mesh_.numBoundaryFaces();

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <optional>
@@ -21,6 +22,13 @@ extern "C" const char* __lsan_default_suppressions() { return "leak:libgmsh.so\n
 #endif
 
 namespace {
+
+// CPU time of this thread [ms]: a tick's own cost, without time spent waiting for a core.
+double threadCpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
 
 constexpr int kExitUsage = 1;
 constexpr int kExitInput = 2;
@@ -148,9 +156,18 @@ void printSummary(const tissue_cut::Statistics& s) {
               s.region.tetrahedra, s.region.quality_mean, s.region.quality_min, s.region.below_tau);
   std::printf("physics     mass %.6g kg, kinetic energy %.3g J, %d instabilities\n",
               s.physics.mass_total, s.physics.kinetic_energy, s.physics.instabilities);
+  if (s.physics.steps > 0)
+    std::printf(
+        "            %lld steps, %.3f ms a step, %.1f CG iterations a step, %d springs, %.2f ns "
+        "per "
+        "spring per CG iteration\n",
+        static_cast<long long>(s.physics.steps), s.physics.time_ms / s.physics.steps,
+        s.physics.cg_iterations_mean, s.physics.springs, s.physics.ns_per_spring_iteration);
   std::printf("ticks       %lld at %.0f Hz: p50 %.4f ms, p99 %.4f ms, max %.4f ms, %lld misses\n",
               static_cast<long long>(s.ticks.count), s.ticks.rate_hz, s.ticks.p50_ms,
               s.ticks.p99_ms, s.ticks.max_ms, static_cast<long long>(s.ticks.deadline_misses));
+  std::printf("            thread CPU time: p50 %.4f ms, p99 %.4f ms, max %.4f ms, all %.3f ms\n",
+              s.ticks.cpu_p50_ms, s.ticks.cpu_p99_ms, s.ticks.cpu_max_ms, s.ticks.cpu_total_ms);
 }
 
 }  // namespace
@@ -199,6 +216,8 @@ int main(int argc, char** argv) {
   const auto ticks = static_cast<long long>(std::ceil((t_path - t0 + opt.settle) / dt - 1e-9));
   const double deadline_ms = 1000.0 * dt;
   const auto wall_start = std::chrono::steady_clock::now();
+  TickTimes cpu_times;
+  double cpu_total_ms = 0.0;
   // The last tick takes the blade away (lifted out of the tissue), so the cut it made is finished:
   // every tet it was still inside is replaced and opened.
   for (long long k = 1; k <= ticks + 1; ++k) {
@@ -208,12 +227,16 @@ int main(int argc, char** argv) {
       blade = bladeFromPose(pose.position, pose.orientation, config.cut.blade_length);
     }
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = threadCpuMs();
     const std::string warning = tissue->step(blade, dt);
-    if (!warning.empty() && !opt.quiet)
-      std::cerr << "cut_replay: tick " << k << ": " << warning << "\n";
+    const double cpu_ms = threadCpuMs() - cpu_start;
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (!warning.empty() && !opt.quiet)
+      std::cerr << "cut_replay: tick " << k << ": " << warning << "\n";
     tissue->tickTimes().record(ms, deadline_ms);
+    cpu_times.record(cpu_ms, deadline_ms);
+    cpu_total_ms += cpu_ms;
     if (opt.check) {
       const std::string err = tissue->validate();
       if (!err.empty()) {
@@ -228,6 +251,12 @@ int main(int argc, char** argv) {
 
   Statistics stats = tissue->statistics();
   stats.ticks.rate_hz = config.rate;
+  stats.ticks.wall_s = wall_s;
+  stats.ticks.cpu_p50_ms = cpu_times.percentile(50);
+  stats.ticks.cpu_p99_ms = cpu_times.percentile(99);
+  stats.ticks.cpu_max_ms = cpu_times.max();
+  stats.ticks.cpu_total_ms = cpu_total_ms;
+  stats.ticks.real_time_factor = wall_s > 0 ? (ticks + 1) * dt / wall_s : 0.0;
   try {
     if (!opt.out.empty()) writeMesh(opt.out, tissue->exportMesh());
     if (!opt.stats.empty()) {
@@ -249,7 +278,7 @@ int main(int argc, char** argv) {
     std::printf(" separated vertices %d, vertices waiting to separate %d\n",
                 tissue->cutter().counts().separated_vertices, tissue->cutter().numDeferred());
     std::printf("replay      %lld ticks (%.3f simulated s) in %.3f s wall: real-time factor %.2f\n",
-                ticks + 1, (ticks + 1) * dt, wall_s, wall_s > 0 ? (ticks + 1) * dt / wall_s : 0.0);
+                ticks + 1, (ticks + 1) * dt, wall_s, stats.ticks.real_time_factor);
   }
   return 0;
 }

@@ -136,6 +136,13 @@ class Cutter {
   bool unmark(const std::array<int, 3>& face);
   std::unordered_map<int, int> marked_at_;  // vertex -> number of marked faces holding it
   CutCounts counts_;
+  // Scratch buffers of one tick, kept for their capacity.
+  std::vector<int> near_scratch_;
+  std::vector<int> swept_near_;  // this tick's sweep search, while no tet has been replaced
+  Vec3 swept_lo_ = Vec3::Zero(), swept_hi_ = Vec3::Zero();
+  bool swept_valid_ = false;
+  std::vector<std::pair<int, int>> edge_scratch_;
+  std::vector<std::array<int, 3>> face_scratch_;
 };
 
 }  // namespace tissue_cut

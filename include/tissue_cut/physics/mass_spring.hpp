@@ -42,6 +42,10 @@ class MassSpring {
   double kineticEnergy() const;  ///< [J]
   int instabilities() const { return instabilities_; }
   int lastIterations() const { return last_iterations_; }
+  /// Steps taken, their CG iterations in total, and the time spent in step() [ms].
+  long long steps() const { return steps_; }
+  long long totalIterations() const { return total_iterations_; }
+  double timeMs() const { return time_ms_; }
   int numSprings() const { return static_cast<int>(springs_.size()); }
   double mass(int v) const { return mass_[v]; }
   bool fixed(int v) const { return fixed_[v] != 0; }
@@ -59,8 +63,13 @@ class MassSpring {
   void resize();
   void updateMass(int v);
   void updateSpring(int a, int b);
+  /// Symmetric 3x3 block (xx, xy, xz, yy, yz, zz); a spring's is kept scaled by h^2.
+  struct Block {
+    double xx, xy, xz, yy, yz, zz;
+  };
   void forces(std::vector<Vec3>* f) const;
-  void multiply(double dt, const std::vector<Vec3>& p, std::vector<Vec3>* out) const;
+  /// out = A p with A = (1 + h alpha) M + h^2 K, rows of fixed vertices zero; returns p . A p.
+  double multiply(const std::vector<Vec3>& p, std::vector<Vec3>* out) const;
   bool stepImplicit(double dt);
   void stepSemiImplicit(double dt);
 
@@ -72,8 +81,15 @@ class MassSpring {
   std::unordered_map<long long, int> spring_of_;  // edge key -> index
   std::vector<Vec3> warm_;                        // last velocity change, per vertex
   std::vector<TetVerts> tet_copy_;                // each live tet's vertices, from the records
-  std::vector<Eigen::Matrix3d> blocks_;           // per-spring stiffness blocks of this step
+  // The implicit step's work space, kept between steps so that a tick allocates nothing.
+  std::vector<Block> blocks_;  // per-spring h^2-scaled stiffness blocks of this step
+  std::vector<Vec3> b_, r_, z_, p_, ap_, dv_, x0_;
+  std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
+  std::vector<int> fixed_list_;  // the fixed vertices of this step
+  double mass_damping_ = 1.0;    // 1 + h alpha of this step
   int instabilities_ = 0, last_iterations_ = 0;
+  long long steps_ = 0, total_iterations_ = 0;
+  double time_ms_ = 0.0;
 };
 
 }  // namespace tissue_cut

@@ -41,6 +41,7 @@ Cutter::Cutter(TetMesh* mesh, const CutterOptions& options) : mesh_(mesh), optio
 }
 
 void Cutter::reset() {
+  swept_valid_ = false;
   pending_.clear();
   on_cut_.clear();
   marked_.clear();
@@ -109,13 +110,33 @@ TetVerts Cutter::cornersOf(const Coarse& c) const {
 }
 
 std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
+  if (swept_valid_ && (lo.array() >= swept_lo_.array()).all() &&
+      (hi.array() <= swept_hi_.array()).all()) {
+    // Inside this tick's sweep box, whose tets no change since has replaced: filter those,
+    // exactly as the grid would (live tets whose current box meets [lo, hi], in id order).
+    near_scratch_.clear();
+    for (int t : swept_near_) {
+      const TetVerts& tv = mesh_->tet(t);
+      Vec3 tlo = mesh_->current(tv[0]), thi = tlo;
+      for (int i = 1; i < 4; ++i) {
+        tlo = tlo.cwiseMin(mesh_->current(tv[i]));
+        thi = thi.cwiseMax(mesh_->current(tv[i]));
+      }
+      if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all())
+        near_scratch_.push_back(t);
+    }
+  } else {
+    grid_.query(*mesh_, lo, hi, &near_scratch_);
+  }
   std::vector<Coarse> out;
-  std::unordered_set<int> seen_pending;
-  for (int t : grid_.query(*mesh_, lo, hi)) {
+  out.reserve(near_scratch_.size());
+  std::vector<int> seen_pending;  // few: the tets the blade is inside
+  for (int t : near_scratch_) {
     const int pid = pending_of_[t];
     if (pid < 0) {
       out.push_back({-1, t});
-    } else if (seen_pending.insert(pid).second) {
+    } else if (std::find(seen_pending.begin(), seen_pending.end(), pid) == seen_pending.end()) {
+      seen_pending.push_back(pid);
       out.push_back({pid, -1});
     }
   }
@@ -621,14 +642,29 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   lo.array() -= snap_distance_;
   hi.array() += snap_distance_;
   const std::vector<Coarse> near = coarseNear(lo, hi);
+  // The fronts of this tick lie in this box (moved by less than the snap distance): their
+  // searches filter these tets, as long as no tet is replaced before (see step()).
+  swept_near_ = near_scratch_;
+  swept_lo_ = lo;
+  swept_hi_ = hi;
+  swept_valid_ = true;
   std::vector<TetVerts> corners;
+  corners.reserve(near.size());
   for (const Coarse& c : near) corners.push_back(cornersOf(c));
   for (const TetVerts& tv : corners)
     for (int v : tv) trySnap(v, tris);
-  std::set<std::pair<int, int>> edges;
+  // The edges in increasing order, each once (sorted, as a std::set would give them).
+  std::vector<std::pair<int, int>>& edges = edge_scratch_;
+  edges.clear();
   for (const TetVerts& tv : corners)
     for (const auto& e : kTetEdge)
-      edges.insert({std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]])});
+      edges.emplace_back(std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]]));
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  // An edge can cross the swept quad only where its box meets the quad's box.
+  const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_);
+  const Vec3 quad_lo = lo.array() + snap_distance_ - slack.array();
+  const Vec3 quad_hi = hi.array() - snap_distance_ + slack.array();
   // The ribbon's own edges (the tip's and base's paths, and the blade where the stroke began)
   // are its front: an edge crossing right on the front is left whole and the front's face points
   // take its place, so a front running along mesh faces makes no points on their edges.
@@ -647,6 +683,9 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   for (const auto& [a, b] : edges) {
     if (on_cut_.count(a) || on_cut_.count(b)) continue;
     if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b)) continue;
+    if ((mesh_->current(a).cwiseMin(mesh_->current(b)).array() > quad_hi.array()).any() ||
+        (mesh_->current(a).cwiseMax(mesh_->current(b)).array() < quad_lo.array()).any())
+      continue;
     for (const Triangle& tri : tris) {
       if (triangleArea(tri) <= tiny) continue;
       double s;
@@ -673,11 +712,16 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
     seg[1] += shift;
     Vec3 lo = seg[0].cwiseMin(seg[1]), hi = seg[0].cwiseMax(seg[1]);
     const std::vector<Coarse> near = coarseNear(lo, hi);
-    std::set<std::array<int, 3>> faces;
+    // The faces in increasing order of their (oriented) triples, each once, as a std::set would
+    // give them; the first orientation of a face met in that order is the one taken.
+    std::vector<std::array<int, 3>>& faces = face_scratch_;
+    faces.clear();
     for (const Coarse& c : near) {
       const TetVerts tv = cornersOf(c);
-      for (const auto& f : kTetFace) faces.insert({tv[f[0]], tv[f[1]], tv[f[2]]});
+      for (const auto& f : kTetFace) faces.push_back({tv[f[0]], tv[f[1]], tv[f[2]]});
     }
+    std::sort(faces.begin(), faces.end());
+    faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
     std::set<std::array<int, 3>> done;
     for (const auto& face : faces) {
       if (!done.insert(sortedFace(face[0], face[1], face[2])).second) continue;
@@ -693,6 +737,7 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
 std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
   const auto start = std::chrono::steady_clock::now();
   std::string warning;
+  swept_valid_ = false;
   // Whether the tissue drifted past the grid's margin is checked on one tick in 64 only (a scan
   // of all vertices): between checks the margin (one mean edge) absorbs the motion.
   if (blade && ++ticks_since_grid_check_ >= 64) {
@@ -723,6 +768,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     crossFront({{blade->base, blade->tip}}, Vec3::Zero(), change);
     stroke_start_ = true;
   } else {
+    // Sweep and fronts only add points and mark tets pending; no tet is replaced until
+    // finalizeLeft(), so the fronts may reuse the sweep's search.
     sweep(*previous_, *blade, change);
     const Vec3 motion = 0.5 * ((blade->base - previous_->base) + (blade->tip - previous_->tip));
     if (motion.norm() > 1e-9 * mean_edge_) last_motion_ = motion;
@@ -731,6 +778,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
       stroke_start_ = false;
     crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
     crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
+    swept_valid_ = false;
   }
   previous_ = blade;
   finalizeLeft(blade, change);

@@ -16,30 +16,36 @@ void tetBox(const TetMesh& mesh, int t, Vec3* lo, Vec3* hi) {
   }
 }
 
+// At most this many cells per live tet: the cell grows when the mesh's box is sparse.
+constexpr double kMaxCellsPerTet = 4.0;
+
 }  // namespace
 
 std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
-  return {static_cast<int>(std::floor(x.x() / cell_)), static_cast<int>(std::floor(x.y() / cell_)),
-          static_cast<int>(std::floor(x.z() / cell_))};
-}
-
-std::int64_t TetGrid::key(int i, int j, int k) const {
-  return (static_cast<std::int64_t>(i) & 0x1FFFFF) |
-         ((static_cast<std::int64_t>(j) & 0x1FFFFF) << 21) |
-         ((static_cast<std::int64_t>(k) & 0x1FFFFF) << 42);
+  std::array<int, 3> c;
+  for (int d = 0; d < 3; ++d) {
+    const double u = std::floor((x[d] - origin_[d]) / cell_);
+    // Compare as doubles first: a far-away (or non-finite) point must not overflow the int.
+    c[d] = !(u > 0) ? 0 : u >= dims_[d] - 1 ? dims_[d] - 1 : static_cast<int>(u);
+  }
+  return c;
 }
 
 void TetGrid::insert(const TetMesh& mesh, int t) {
   Vec3 lo, hi;
   tetBox(mesh, t, &lo, &hi);
-  lo.array() -= margin_;
-  hi.array() += margin_;
+  Entry e;
+  e.tet = t;
+  for (int d = 0; d < 3; ++d) {
+    e.lo[d] = std::nextafter(static_cast<float>(lo[d]), -HUGE_VALF);
+    e.hi[d] = std::nextafter(static_cast<float>(hi[d]), HUGE_VALF);
+  }
   const auto [i0, j0, k0] = cellOf(lo);
   const auto [i1, j1, k1] = cellOf(hi);
-  for (int i = i0; i <= i1; ++i)
+  for (int k = k0; k <= k1; ++k)
     for (int j = j0; j <= j1; ++j)
-      for (int k = k0; k <= k1; ++k) {
-        cells_[key(i, j, k)].push_back(t);
+      for (int i = i0; i <= i1; ++i) {
+        cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)].push_back(e);
         ++entries_;
       }
 }
@@ -47,11 +53,32 @@ void TetGrid::insert(const TetMesh& mesh, int t) {
 void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
   cell_ = cell > 0 ? cell : 1.0;
   margin_ = margin;
-  cells_.clear();
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (int v = 0; v < mesh.vertexSlots(); ++v) {
+    if (!mesh.vertexAlive(v) || !mesh.current(v).allFinite()) continue;
+    lo = lo.cwiseMin(mesh.current(v));
+    hi = hi.cwiseMax(mesh.current(v));
+  }
+  if (!(lo.array() <= hi.array()).all()) lo = hi = Vec3::Zero();
+  const Vec3 extent = hi - lo;
+  const double budget = kMaxCellsPerTet * std::max(mesh.numTets(), 1);
+  auto count = [&](double c) {
+    double n = 1.0;
+    for (int d = 0; d < 3; ++d) n *= std::floor(extent[d] / c) + 1.0;
+    return n;
+  };
+  while (count(cell_) > budget) cell_ *= 1.25;
+  origin_ = lo;
+  for (int d = 0; d < 3; ++d) dims_[d] = static_cast<int>(std::floor(extent[d] / cell_)) + 1;
+  // Emptied cells keep their capacity: a rebuild of a grid of the same size allocates nothing.
+  const std::size_t cells = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+  if (cells_.size() > cells) cells_.resize(cells);
+  for (auto& c : cells_) c.clear();
+  cells_.resize(cells);
   entries_ = 0;
   for (int t = 0; t < mesh.tetSlots(); ++t)
     if (mesh.tetAlive(t)) insert(mesh, t);
-  live_at_build_ = mesh.numTets();
+  entries_at_build_ = entries_;
   built_positions_ = mesh.currentPositions();
 }
 
@@ -65,9 +92,10 @@ void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change) {
 }
 
 bool TetGrid::needsRebuild(const TetMesh& mesh) const {
-  if (entries_ > 16u * static_cast<std::size_t>(std::max(live_at_build_, mesh.numTets())) + 1024)
-    return true;
-  const double limit = 0.5 * margin_ * margin_;
+  if (entries_ > 2 * entries_at_build_ + 1024) return true;
+  // A tet filed after the build uses its vertices' positions then, each within half the margin
+  // of its filed position; so no box has moved more than the margin since it was filed.
+  const double limit = 0.25 * margin_ * margin_;
   const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
   for (int v = 0; v < n; ++v)
     if (mesh.vertexAlive(v) && (mesh.current(v) - built_positions_[v]).squaredNorm() > limit)
@@ -77,29 +105,46 @@ bool TetGrid::needsRebuild(const TetMesh& mesh) const {
 
 std::vector<int> TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi) const {
   std::vector<int> out;
+  query(mesh, lo, hi, &out);
+  return out;
+}
+
+void TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
+                    std::vector<int>* out) const {
+  out->clear();
+  if (cells_.empty()) return;
   if (seen_.size() < static_cast<std::size_t>(mesh.tetSlots())) seen_.resize(mesh.tetSlots(), 0);
   if (++stamp_ == 0) {
     std::fill(seen_.begin(), seen_.end(), 0);
     stamp_ = 1;
   }
-  const auto [i0, j0, k0] = cellOf(lo);
-  const auto [i1, j1, k1] = cellOf(hi);
-  if (static_cast<double>(i1 - i0 + 1) * (j1 - j0 + 1) * (k1 - k0 + 1) > 1e6) return out;
-  for (int i = i0; i <= i1; ++i)
+  const Vec3 margin = Vec3::Constant(margin_);
+  const auto [i0, j0, k0] = cellOf(lo - margin);
+  const auto [i1, j1, k1] = cellOf(hi + margin);
+  // A filed box that may have drifted into the query box overlaps it grown by the margin (a
+  // little more, for the floats).
+  float qlo[3], qhi[3];
+  for (int d = 0; d < 3; ++d) {
+    const double slack = margin_ * 1.001 + 1e-6 * (std::abs(lo[d]) + std::abs(hi[d]));
+    qlo[d] = static_cast<float>(lo[d] - slack);
+    qhi[d] = static_cast<float>(hi[d] + slack);
+  }
+  for (int k = k0; k <= k1; ++k)
     for (int j = j0; j <= j1; ++j)
-      for (int k = k0; k <= k1; ++k) {
-        auto it = cells_.find(key(i, j, k));
-        if (it == cells_.end()) continue;
-        for (int t : it->second) {
-          if (t >= mesh.tetSlots() || !mesh.tetAlive(t) || seen_[t] == stamp_) continue;
+      for (int i = i0; i <= i1; ++i)
+        for (const Entry& e : cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)]) {
+          if (e.lo[0] > qhi[0] || e.hi[0] < qlo[0] || e.lo[1] > qhi[1] || e.hi[1] < qlo[1] ||
+              e.lo[2] > qhi[2] || e.hi[2] < qlo[2])
+            continue;
+          const int t = e.tet;
+          if (t >= mesh.tetSlots() || seen_[t] == stamp_ || !mesh.tetAlive(t)) continue;
           seen_[t] = stamp_;
           Vec3 tlo, thi;
           tetBox(mesh, t, &tlo, &thi);
           if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all())
-            out.push_back(t);
+            out->push_back(t);
         }
-      }
-  return out;
+  std::sort(out->begin(), out->end());
 }
 
 }  // namespace tissue_cut

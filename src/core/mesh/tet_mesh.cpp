@@ -19,7 +19,9 @@ FaceKey sortedFace(int a, int b, int c) {
   return k;
 }
 
-bool contains(const TetVerts& t, int v) { return std::find(t.begin(), t.end(), v) != t.end(); }
+bool contains(const TetVerts& t, int v) {
+  return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v);
+}
 
 int localIndex(const TetVerts& t, int v) {
   for (int i = 0; i < 4; ++i)
@@ -169,6 +171,7 @@ TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
 
 std::vector<int> TetMesh::edgeTets(int a, int b) const {
   std::vector<int> out;
+  out.reserve(8);  // a typical star: one allocation
   for (int t : vertex_tets_[a])
     if (contains(tets_[t], b)) out.push_back(t);
   return out;

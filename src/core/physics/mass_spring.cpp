@@ -1,6 +1,7 @@
 #include "tissue_cut/physics/mass_spring.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -14,16 +15,34 @@ long long edgeKey(int a, int b) {
   return (static_cast<long long>(a) << 32) | static_cast<unsigned>(b);
 }
 
-// The spring's stiffness block: force on a is +K (x_b - x_a) to first order. The transverse
-// part (1 - L/|d|) is clamped at 0 so the block stays positive semi-definite (Choi and Ko 2002),
-// which keeps the implicit system symmetric positive definite.
-Eigen::Matrix3d springBlock(const Vec3& d, double rest_length, double k) {
-  const double len = d.norm();
-  if (!(len > 0)) return k * Eigen::Matrix3d::Identity();
-  const Vec3 n = d / len;
-  const Eigen::Matrix3d nn = n * n.transpose();
-  const double transverse = std::max(0.0, 1.0 - rest_length / len);
-  return k * (nn + transverse * (Eigen::Matrix3d::Identity() - nn));
+// k x for a symmetric block k = (xx, xy, xz, yy, yz, zz).
+template <class Sym>
+Vec3 apply(const Sym& k, const Vec3& x) {
+  return Vec3(k.xx * x.x() + k.xy * x.y() + k.xz * x.z(),
+              k.xy * x.x() + k.yy * x.y() + k.yz * x.z(),
+              k.xz * x.x() + k.yz * x.y() + k.zz * x.z());
+}
+
+template <class Sym>
+void addTo(Sym* m, const Sym& k) {
+  m->xx += k.xx;
+  m->xy += k.xy;
+  m->xz += k.xz;
+  m->yy += k.yy;
+  m->yz += k.yz;
+  m->zz += k.zz;
+}
+
+// The inverse of a symmetric block by cofactors; false when it is not positive definite.
+template <class Sym>
+bool invert(Sym* m) {
+  const double a = m->xx, b = m->xy, c = m->xz, d = m->yy, e = m->yz, f = m->zz;
+  const double A = d * f - e * e, B = c * e - b * f, C = b * e - c * d;
+  const double det = a * A + b * B + c * C;
+  if (!(det > 0) || !(a > 0)) return false;
+  const double s = 1.0 / det;
+  *m = {A * s, B * s, C * s, (a * f - c * c) * s, (b * c - a * e) * s, (a * d - b * b) * s};
+  return true;
 }
 
 }  // namespace
@@ -160,10 +179,11 @@ double MassSpring::kineticEnergy() const {
 
 void MassSpring::forces(std::vector<Vec3>* f) const {
   const int n = mesh_->vertexSlots();
-  f->assign(n, Vec3::Zero());
+  f->resize(n);
   for (int v = 0; v < n; ++v)
-    if (mesh_->vertexAlive(v))
-      (*f)[v] = mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v));
+    (*f)[v] = mesh_->vertexAlive(v)
+                  ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
+                  : Vec3::Zero();
   for (const Spring& s : springs_) {
     const Vec3 d = mesh_->current(s.b) - mesh_->current(s.a);
     const double len = d.norm();
@@ -174,109 +194,169 @@ void MassSpring::forces(std::vector<Vec3>* f) const {
   }
 }
 
-void MassSpring::multiply(double dt, const std::vector<Vec3>& p, std::vector<Vec3>* out) const {
+double MassSpring::multiply(const std::vector<Vec3>& p, std::vector<Vec3>* out_vec) const {
   // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), fixed vertices held at zero.
+  // Dead vertices have no mass and no springs, so their rows come out zero by themselves.
   const int n = mesh_->vertexSlots();
-  out->assign(n, Vec3::Zero());
-  const double h2 = dt * dt, md = 1.0 + dt * params_.damping;
-  for (int v = 0; v < n; ++v)
-    if (mesh_->vertexAlive(v)) (*out)[v] = md * mass_[v] * p[v];
-  for (std::size_t i = 0; i < springs_.size(); ++i) {
-    const Spring& s = springs_[i];
-    const Vec3 r = h2 * (blocks_[i] * (p[s.a] - p[s.b]));
-    (*out)[s.a] += r;
-    (*out)[s.b] -= r;
+  Vec3* out = out_vec->data();
+  const Vec3* pv = p.data();
+  for (int v = 0; v < n; ++v) out[v] = (mass_damping_ * mass_[v]) * pv[v];
+  // Springs are kept sorted by their first end (mostly: new ones go last), so the first end's sum
+  // stays in registers along a run and only the second end is scattered; that breaks the chain
+  // of dependent loads and stores through out[a].
+  const std::size_t ns = springs_.size();
+  const Spring* springs = springs_.data();
+  const Block* blocks = blocks_.data();
+  int run = -1;
+  Vec3 pa = Vec3::Zero(), sum = Vec3::Zero();
+  for (std::size_t i = 0; i < ns; ++i) {
+    const int a = springs[i].a, b = springs[i].b;
+    if (a != run) {
+      if (run >= 0) out[run] += sum;
+      run = a;
+      pa = pv[a];
+      sum.setZero();
+    }
+    const Vec3 r = apply(blocks[i], Vec3(pa - pv[b]));
+    sum += r;
+    out[b] -= r;
   }
-  for (int v = 0; v < n; ++v)
-    if (fixed_[v]) (*out)[v].setZero();
+  if (run >= 0) out[run] += sum;
+  for (int v : fixed_list_) out[v].setZero();
+  double pap = 0.0;
+  for (int v = 0; v < n; ++v) pap += pv[v].dot(out[v]);
+  return pap;
 }
 
 bool MassSpring::stepImplicit(double dt) {
   const int n = mesh_->vertexSlots();
+  const double h2 = dt * dt, inv_dt = 1.0 / dt;
+  mass_damping_ = 1.0 + dt * params_.damping;
+  for (auto* v : {&b_, &r_, &z_, &p_, &ap_}) v->resize(n);
+  inv_diag_.resize(n);
   blocks_.resize(springs_.size());
-  for (std::size_t i = 0; i < springs_.size(); ++i) {
-    const Spring& s = springs_[i];
-    blocks_[i] = springBlock(mesh_->current(s.b) - mesh_->current(s.a), s.rest_length, s.stiffness);
-  }
-  // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a).
-  std::vector<Vec3> b, r, z, p, ap, dv = warm_;
-  forces(&b);
-  for (std::size_t i = 0; i < springs_.size(); ++i) {
-    const Spring& s = springs_[i];
-    const Vec3 kv = blocks_[i] * (mesh_->velocity(s.b) - mesh_->velocity(s.a));
-    b[s.a] += dt * kv;
-    b[s.b] -= dt * kv;
-  }
-  std::vector<Vec3> diag(n, Vec3::Zero());
+  fixed_list_.clear();
+  for (int v = 0; v < n; ++v)
+    if (fixed_[v] && mesh_->vertexAlive(v)) fixed_list_.push_back(v);
+  // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
+  // forces, their stiffness blocks (kept scaled by h^2 for the CG products) and the diagonal
+  // blocks of A for the preconditioner.
   for (int v = 0; v < n; ++v) {
-    b[v] *= dt;
-    if (mesh_->vertexAlive(v)) diag[v].setConstant((1.0 + dt * params_.damping) * mass_[v]);
-    if (fixed_[v] || !mesh_->vertexAlive(v)) {
-      b[v].setZero();
-      dv[v].setZero();
-    }
+    const bool alive = mesh_->vertexAlive(v);
+    b_[v] = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
+                  : Vec3::Zero();
+    const double md = mass_damping_ * mass_[v];
+    inv_diag_[v] = {md, 0.0, 0.0, md, 0.0, md};
   }
-  for (std::size_t i = 0; i < springs_.size(); ++i) {
-    const Vec3 d = dt * dt * blocks_[i].diagonal();
-    diag[springs_[i].a] += d;
-    diag[springs_[i].b] += d;
-  }
-  // Jacobi-preconditioned conjugate gradients, warm-started from the last step's answer.
-  multiply(dt, dv, &ap);
-  r.resize(n);
-  z.resize(n);
-  double b_norm = 0.0;
-  for (int v = 0; v < n; ++v) {
-    r[v] = b[v] - ap[v];
-    b_norm += b[v].squaredNorm();
-  }
-  auto precondition = [&](const std::vector<Vec3>& in, std::vector<Vec3>* out) {
-    for (int v = 0; v < n; ++v)
-      (*out)[v] = (diag[v].array() > 0).select(in[v].array() / diag[v].array(), 0.0).matrix();
+  const Vec3* x = mesh_->currentPositions().data();
+  const Vec3* u = mesh_->velocities().data();
+  // As in multiply(): the first end's sums stay in registers along a run of its springs.
+  int run = -1;
+  Vec3 run_b = Vec3::Zero();
+  Block run_k{0, 0, 0, 0, 0, 0};
+  auto flush = [&] {
+    if (run < 0) return;
+    b_[run] += run_b;
+    addTo(&inv_diag_[run], run_k);
   };
-  precondition(r, &z);
-  p = z;
-  double rz = 0.0;
-  for (int v = 0; v < n; ++v) rz += r[v].dot(z[v]);
+  for (std::size_t i = 0; i < springs_.size(); ++i) {
+    const Spring& s = springs_[i];
+    if (s.a != run) {
+      flush();
+      run = s.a;
+      run_b.setZero();
+      run_k = {0, 0, 0, 0, 0, 0};
+    }
+    const Vec3 d = x[s.b] - x[s.a];
+    const double len = d.norm();
+    Block& k = blocks_[i];
+    Vec3 f = Vec3::Zero();
+    if (len > 0) {
+      const double inv = 1.0 / len;
+      f = (s.stiffness * (len - s.rest_length) * inv) * d;
+      // The spring's stiffness block (force on a is +K (x_b - x_a) to first order):
+      // K = k (n n^T + max(0, 1 - L/|d|) (I - n n^T)). The transverse part is clamped at 0 so the
+      // block stays positive semi-definite (Choi and Ko 2002), which keeps A symmetric positive
+      // definite.
+      const Vec3 nrm = d * inv;
+      const double transverse = std::max(0.0, 1.0 - s.rest_length * inv);
+      const double kt = h2 * s.stiffness * transverse, kn = h2 * s.stiffness - kt;
+      k = {kt + kn * nrm.x() * nrm.x(), kn * nrm.x() * nrm.y(), kn * nrm.x() * nrm.z(),
+           kt + kn * nrm.y() * nrm.y(), kn * nrm.y() * nrm.z(), kt + kn * nrm.z() * nrm.z()};
+    } else {
+      const double kk = h2 * s.stiffness;
+      k = {kk, 0.0, 0.0, kk, 0.0, kk};
+    }
+    const Vec3 dvel = u[s.b] - u[s.a];
+    const Vec3 fb = f + inv_dt * apply(k, dvel);
+    run_b += fb;
+    b_[s.b] -= fb;
+    addTo(&run_k, k);
+    addTo(&inv_diag_[s.b], k);
+  }
+  flush();
+  dv_ = warm_;
+  dv_.resize(n, Vec3::Zero());
+  for (int v = 0; v < n; ++v) {
+    b_[v] *= dt;
+    const bool held = fixed_[v] || !mesh_->vertexAlive(v);
+    if (held) {
+      b_[v].setZero();
+      dv_[v].setZero();
+    }
+    // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
+    if (held || !invert(&inv_diag_[v])) inv_diag_[v] = {0, 0, 0, 0, 0, 0};
+  }
+  // Preconditioned conjugate gradients, warm-started from the last step's answer.
+  multiply(dv_, &ap_);
+  double b_norm = 0.0, rz = 0.0;
+  for (int v = 0; v < n; ++v) {
+    r_[v] = b_[v] - ap_[v];
+    b_norm += b_[v].squaredNorm();
+    z_[v] = apply(inv_diag_[v], r_[v]);
+    rz += r_[v].dot(z_[v]);
+  }
+  p_ = z_;
   const double tolerance2 = params_.cg_tolerance * params_.cg_tolerance * std::max(b_norm, 1e-300);
+  double rr = 0.0;
+  for (int v = 0; v < n; ++v) rr += r_[v].squaredNorm();
   int it = 0;
   for (; it < params_.cg_max_iterations; ++it) {
-    double rr = 0.0;
-    for (int v = 0; v < n; ++v) rr += r[v].squaredNorm();
     if (rr <= tolerance2) break;
-    multiply(dt, p, &ap);
-    double pap = 0.0;
-    for (int v = 0; v < n; ++v) pap += p[v].dot(ap[v]);
+    const double pap = multiply(p_, &ap_);
     if (!(pap > 0)) break;
     const double alpha = rz / pap;
-    for (int v = 0; v < n; ++v) {
-      dv[v] += alpha * p[v];
-      r[v] -= alpha * ap[v];
-    }
-    precondition(r, &z);
     double rz_next = 0.0;
-    for (int v = 0; v < n; ++v) rz_next += r[v].dot(z[v]);
+    rr = 0.0;
+    for (int v = 0; v < n; ++v) {
+      dv_[v] += alpha * p_[v];
+      r_[v] -= alpha * ap_[v];
+      z_[v] = apply(inv_diag_[v], r_[v]);
+      rz_next += r_[v].dot(z_[v]);
+      rr += r_[v].squaredNorm();
+    }
     const double beta = rz_next / rz;
     rz = rz_next;
-    for (int v = 0; v < n; ++v) p[v] = z[v] + beta * p[v];
+    for (int v = 0; v < n; ++v) p_[v] = z_[v] + beta * p_[v];
   }
   last_iterations_ = it;
+  total_iterations_ += it;
   for (int v = 0; v < n; ++v) {
     if (!mesh_->vertexAlive(v)) continue;
     if (fixed_[v]) {
       mesh_->velocity(v).setZero();
       continue;
     }
-    mesh_->velocity(v) += dv[v];
+    mesh_->velocity(v) += dv_[v];
     mesh_->current(v) += dt * mesh_->velocity(v);
   }
-  warm_ = dv;
+  warm_.swap(dv_);
   return true;
 }
 
 void MassSpring::stepSemiImplicit(double dt) {
-  std::vector<Vec3> f;
-  forces(&f);
+  forces(&b_);
+  const std::vector<Vec3>& f = b_;
   for (int v = 0; v < mesh_->vertexSlots(); ++v) {
     if (!mesh_->vertexAlive(v)) continue;
     if (fixed_[v] || !(mass_[v] > 0)) {
@@ -289,8 +369,18 @@ void MassSpring::stepSemiImplicit(double dt) {
 }
 
 std::string MassSpring::step(double dt) {
+  const auto start = std::chrono::steady_clock::now();
+  struct Timer {  // counts the step's time on every way out
+    const std::chrono::steady_clock::time_point& start;
+    double* total;
+    ~Timer() {
+      *total += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                    .count();
+    }
+  } timer{start, &time_ms_};
+  ++steps_;
   resize();
-  const std::vector<Vec3> x0 = mesh_->currentPositions();
+  x0_ = mesh_->currentPositions();  // capacity kept: no allocation once grown
   if (params_.implicit) {
     stepImplicit(dt);
   } else {
@@ -305,7 +395,7 @@ std::string MassSpring::step(double dt) {
   }
   if (finite && worst <= params_.max_speed) return "";
   // Roll back and damp: the tissue keeps its last good shape, at rest.
-  mesh_->currentPositions() = x0;
+  mesh_->currentPositions() = x0_;
   for (Vec3& u : mesh_->velocities()) u.setZero();
   std::fill(warm_.begin(), warm_.end(), Vec3::Zero());
   ++instabilities_;
