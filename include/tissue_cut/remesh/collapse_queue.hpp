@@ -1,10 +1,13 @@
 // CollapseQueue: the paper's on-the-fly edge collapse. Tets a cut creates with quality Q < tau
-// queue their shortest edge, lowest Q first; each tick the queue is worked off within a time
-// budget, skipping edges next to tets still being cut.
+// queue their edges (shortest first), lowest Q first; each tick the queue is worked off within a
+// time budget, skipping edges next to tets still being cut. Our extension: a bad tet whose edges
+// may not go also queues its vertices for smoothing (see vertex_smoothing.hpp), which often lets
+// a refused collapse through afterwards.
 #pragma once
 
 #include <functional>
 #include <queue>
+#include <unordered_map>
 #include <vector>
 
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -16,7 +19,8 @@ struct CollapseCounts {
   int collapsed_edges = 0;
   int removed_tetrahedra = 0;  ///< #RmT
   int rejected_link = 0, rejected_inversion = 0, rejected_quality = 0, rejected_boundary = 0;
-  double time_ms = 0.0;  ///< t.EC
+  int smoothed_vertices = 0;  ///< accepted smoothing moves
+  double time_ms = 0.0;       ///< t.EC
 };
 
 class CollapseQueue {
@@ -39,23 +43,47 @@ class CollapseQueue {
   const CollapseCounts& counts() const { return counts_; }
   void setTau(double tau) { tau_ = tau; }
   void setBudget(double budget_us) { budget_us_ = budget_us; }
+  /// Boundary collapses may tilt the boundary faces that move by up to `shape_tolerance` (relative
+  /// to each face's longest edge, see checkCollapse), as long as the net rest volume they change
+  /// stays within `volume_budget` [m^3]. Default 0, 0: the boundary keeps its shape exactly.
+  void setShapeTolerance(double shape_tolerance, double volume_budget) {
+    shape_tolerance_ = shape_tolerance;
+    volume_budget_ = volume_budget;
+  }
+  /// Net rest volume changed so far by boundary collapses [m^3].
+  double volumeChanged() const { return volume_changed_; }
+  /// Smoothing on or off (on by default); `pinned(v)` names vertices that must never move (e.g.
+  /// fixed by the physics), on top of the busy ones.
+  void setSmoothing(bool enabled, std::function<bool(int)> pinned = nullptr) {
+    smoothing_ = enabled;
+    pinned_ = std::move(pinned);
+  }
   void clear();
 
  private:
   struct Entry {
     double quality;
-    int a, b;
+    int a, b;         // b < 0: smooth vertex a
     long long stamp;  // the sum of the two vertices' stamps when queued
     bool operator<(const Entry& o) const { return quality > o.quality; }  // min-heap
   };
   void queueTet(int t);
   long long stampOf(int a, int b) const;
+  void touched(int v, const std::function<bool(int)>& created_by_cut);
+  static long long keyOf(const Entry& e);
+  bool alreadyRefused(const Entry& e) const;
+  void refused(const Entry& e);
 
   TetMesh* mesh_;
   double tau_, budget_us_;
   std::priority_queue<Entry> heap_;
-  std::vector<long long> vertex_stamp_;  // bumped when a vertex's star changes
-  std::vector<Entry> waiting_;           // busy this tick, back in the heap next tick
+  std::vector<long long> vertex_stamp_;               // bumped when a vertex's star changes
+  std::vector<Entry> waiting_;                        // busy this tick, back in the heap next tick
+  std::unordered_map<long long, long long> refused_;  // edge or vertex -> stamp when refused
+  std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
+  bool smoothing_ = true;
+  double shape_tolerance_ = 0.0, volume_budget_ = 0.0, volume_changed_ = 0.0;
+  std::function<bool(int)> pinned_;
   CollapseCounts counts_;
 };
 

@@ -3,11 +3,20 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <set>
 
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/remesh/vertex_smoothing.hpp"
 
 namespace tissue_cut {
+
+namespace {
+// A smoothing move must raise its star's worst Q by this much, and a vertex moves at most
+// kMaxMoves times: the queue cannot cycle.
+constexpr double kMinSmoothingGain = 1e-3;
+constexpr int kMaxMoves = 8;
+}  // namespace
 
 CollapseQueue::CollapseQueue(TetMesh* mesh, double tau, double budget_us)
     : mesh_(mesh), tau_(tau), budget_us_(budget_us) {}
@@ -16,6 +25,9 @@ void CollapseQueue::clear() {
   heap_ = {};
   waiting_.clear();
   vertex_stamp_.clear();
+  moves_.clear();
+  refused_.clear();
+  volume_changed_ = 0.0;
   counts_ = CollapseCounts{};
 }
 
@@ -43,7 +55,34 @@ void CollapseQueue::queueTet(int t) {
     heap_.push({q + 1e-9 * k, tv[kTetEdge[e][0]], tv[kTetEdge[e][1]],
                 stampOf(tv[kTetEdge[e][0]], tv[kTetEdge[e][1]])});
   }
+  // Then its vertices, in case no edge may go: a move may let one go later.
+  if (smoothing_)
+    for (int k = 0; k < 4; ++k) heap_.push({q + 1e-8 + 1e-9 * k, tv[k], -1, stampOf(tv[k], tv[k])});
 }
+
+void CollapseQueue::touched(int s, const std::function<bool(int)>& created_by_cut) {
+  // Everything around s changed: old entries there go stale, its bad tets requeue.
+  if (static_cast<int>(vertex_stamp_.size()) < mesh_->vertexSlots())
+    vertex_stamp_.resize(mesh_->vertexSlots(), 0);
+  std::set<int> around;
+  for (int t : mesh_->vertexTets(s))
+    for (int v : mesh_->tet(t)) around.insert(v);
+  for (int v : around) ++vertex_stamp_[v];
+  for (int t : mesh_->vertexTets(s))
+    if (created_by_cut(t)) queueTet(t);
+}
+
+long long CollapseQueue::keyOf(const Entry& e) {
+  const long long lo = e.b < 0 ? e.a : std::min(e.a, e.b), hi = e.b < 0 ? -1 : std::max(e.a, e.b);
+  return (lo << 32) ^ (hi & 0xffffffffLL);
+}
+
+bool CollapseQueue::alreadyRefused(const Entry& e) const {
+  const auto it = refused_.find(keyOf(e));
+  return it != refused_.end() && it->second == e.stamp;
+}
+
+void CollapseQueue::refused(const Entry& e) { refused_[keyOf(e)] = e.stamp; }
 
 void CollapseQueue::queueFrom(const ChangeRecord& change,
                               const std::function<bool(int)>& created_by_cut) {
@@ -66,6 +105,28 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   while (!heap_.empty() && (!attempted || budget_us_ <= 0 || elapsed_us() < budget_us_)) {
     const Entry e = heap_.top();
     heap_.pop();
+    if (e.b < 0) {
+      if (!mesh_->vertexAlive(e.a) || e.stamp != stampOf(e.a, e.a)) continue;
+      if (busy(e.a)) {
+        waiting_.push_back(e);
+        continue;
+      }
+      if (pinned_ && pinned_(e.a)) continue;
+      if (static_cast<int>(moves_.size()) < mesh_->vertexSlots())
+        moves_.resize(mesh_->vertexSlots(), 0);
+      if (moves_[e.a] >= kMaxMoves || alreadyRefused(e)) continue;
+      attempted = true;
+      ChangeRecord local;
+      if (!smoothVertex(mesh_, e.a, kMinSmoothingGain, &local)) {
+        refused(e);
+      } else {
+        ++moves_[e.a];
+        ++counts_.smoothed_vertices;
+        change->append(local);
+        touched(e.a, created_by_cut);
+      }
+      continue;
+    }
     if (!mesh_->vertexAlive(e.a) || !mesh_->vertexAlive(e.b)) continue;
     if (e.stamp != stampOf(e.a, e.b)) continue;  // the neighbourhood changed since: stale
     if (mesh_->edgeTets(e.a, e.b).empty()) continue;
@@ -73,10 +134,14 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
       waiting_.push_back(e);
       continue;
     }
+    if (alreadyRefused(e)) continue;  // queued by several tets; nothing changed since
     attempted = true;
-    ChangeRecord local;
-    CollapseCheck check;
-    if (!collapseEdge(mesh_, e.a, e.b, &local, &check)) {
+    CollapseCheck check = checkCollapse(*mesh_, e.a, e.b, shape_tolerance_);
+    if (check.refusal == CollapseRefusal::kNone && shape_tolerance_ > 0.0 &&
+        std::abs(volume_changed_ + check.volume_change) > volume_budget_)
+      check.refusal = CollapseRefusal::kBoundary;  // the rest volume would drift too far
+    if (check.refusal != CollapseRefusal::kNone) {
+      refused(e);
       switch (check.refusal) {
         case CollapseRefusal::kLink:
           ++counts_.rejected_link;
@@ -95,20 +160,14 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
       }
       continue;
     }
+    ChangeRecord local;
+    mesh_->mergeVertices(check.removed, check.survivor, &local);
+    if (shape_tolerance_ > 0.0) volume_changed_ += check.volume_change;
     ++counts_.collapsed_edges;
     counts_.removed_tetrahedra +=
         static_cast<int>(local.removed_tets.size()) - static_cast<int>(local.added_tets.size());
     change->append(local);
-    // Everything around the survivor changed: old entries there go stale, its bad tets requeue.
-    const int s = check.survivor;
-    if (static_cast<int>(vertex_stamp_.size()) < mesh_->vertexSlots())
-      vertex_stamp_.resize(mesh_->vertexSlots(), 0);
-    std::set<int> around;
-    for (int t : mesh_->vertexTets(s))
-      for (int v : mesh_->tet(t)) around.insert(v);
-    for (int v : around) ++vertex_stamp_[v];
-    for (int t : mesh_->vertexTets(s))
-      if (created_by_cut(t)) queueTet(t);
+    touched(check.survivor, created_by_cut);
   }
   counts_.time_ms += elapsed_us() / 1000.0;
 }
