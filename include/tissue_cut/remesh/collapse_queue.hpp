@@ -1,8 +1,9 @@
 // CollapseQueue: the paper's on-the-fly edge collapse. Tets a cut creates with quality Q < tau
-// queue their edges (shortest first), lowest Q first; each tick the queue is worked off within a
-// time budget, skipping edges next to tets still being cut. Our extension: a bad tet whose edges
-// may not go also queues its vertices for smoothing (see vertex_smoothing.hpp), which often lets
-// a refused collapse through afterwards.
+// are queued, lowest Q first; each tick the queue is worked off within a time budget, skipping
+// tets next to tets still being cut. A tet's six edges are checked (each both ways where allowed)
+// and the collapse leaving the best worst quality is taken. Our extension: when none may go, one
+// of its vertices is smoothed (see vertex_smoothing.hpp), which often lets a collapse through
+// later. An edge or vertex refused is not checked again until its neighbourhood changes.
 #pragma once
 
 #include <functional>
@@ -28,17 +29,17 @@ class CollapseQueue {
   /// tau: quality threshold; budget_us: work per call of process() [us], 0 = unbounded.
   CollapseQueue(TetMesh* mesh, double tau, double budget_us);
 
-  /// Queues the shortest edge of every added tet of `change` whose rest Q is below tau, when
-  /// `created_by_cut` says the tet was made by a cut.
+  /// Queues every added tet of `change` whose rest Q is below tau, when `created_by_cut` says the
+  /// tet was made by a cut.
   void queueFrom(const ChangeRecord& change, const std::function<bool(int)>& created_by_cut);
 
   /// Works the queue within the budget. `busy(v)` tells vertices that must not move (next to a
-  /// tet still being cut): their edges wait. Edges of tets `created_by_cut` around a collapsed
-  /// vertex are queued again. Appends the changes to `change`.
+  /// tet still being cut): tets holding them wait. Tets `created_by_cut` around a collapsed or
+  /// moved vertex are queued again. Appends the changes to `change`.
   void process(const std::function<bool(int)>& busy, const std::function<bool(int)>& created_by_cut,
                ChangeRecord* change);
 
-  /// Queued edges, those waiting for a busy neighbourhood included (some may have gone stale).
+  /// Queued tets, those waiting for a busy neighbourhood included (some may have gone stale).
   int pending() const { return static_cast<int>(heap_.size() + waiting_.size()); }
   const CollapseCounts& counts() const { return counts_; }
   void setTau(double tau) { tau_ = tau; }
@@ -63,23 +64,30 @@ class CollapseQueue {
  private:
   struct Entry {
     double quality;
-    int a, b;         // b < 0: smooth vertex a
-    long long stamp;  // the sum of the two vertices' stamps when queued
+    int tet;
+    TetVerts verts;   // the tet when queued (its slot may be reused)
+    long long stamp;  // the sum of its vertices' stamps when queued
     bool operator<(const Entry& o) const { return quality > o.quality; }  // min-heap
   };
   void queueTet(int t);
   long long stampOf(int a, int b) const;
+  long long stampOf(const TetVerts& tv) const;
   void touched(int v, const std::function<bool(int)>& created_by_cut);
-  static long long keyOf(const Entry& e);
-  bool alreadyRefused(const Entry& e) const;
-  void refused(const Entry& e);
+  // The best accepted collapse of an edge of tv, if any; else one smoothing move of a vertex.
+  bool collapseBest(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
+                    ChangeRecord* change);
+  bool smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
+                 ChangeRecord* change);
+  static long long keyOf(int a, int b);
+  bool alreadyRefused(int a, int b) const;
+  void refused(int a, int b);
 
   TetMesh* mesh_;
   double tau_, budget_us_;
   std::priority_queue<Entry> heap_;
   std::vector<long long> vertex_stamp_;               // bumped when a vertex's star changes
   std::vector<Entry> waiting_;                        // busy this tick, back in the heap next tick
-  std::unordered_map<long long, long long> refused_;  // edge or vertex -> stamp when refused
+  std::unordered_map<long long, long long> refused_;  // edge or vertex -> its stamp when refused
   std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
   bool smoothing_ = true;
   double shape_tolerance_ = 0.0, volume_budget_ = 0.0, volume_changed_ = 0.0;

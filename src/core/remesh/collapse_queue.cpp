@@ -38,26 +38,14 @@ long long CollapseQueue::stampOf(int a, int b) const {
   return at(a) + at(b);
 }
 
+long long CollapseQueue::stampOf(const TetVerts& tv) const {
+  return stampOf(tv[0], tv[1]) + stampOf(tv[2], tv[3]);
+}
+
 void CollapseQueue::queueTet(int t) {
   if (!mesh_->tetAlive(t)) return;
   const double q = restQuality(*mesh_, t);
-  if (!(q < tau_)) return;
-  // The shortest edge first (the paper's choice); the others of the same tet follow it, so that a
-  // sliver whose shortest edge may not go (it would flatten a neighbour) can still go another way.
-  const TetVerts& tv = mesh_->tet(t);
-  std::array<std::pair<double, int>, 6> edges;
-  for (int e = 0; e < 6; ++e)
-    edges[e] = {(mesh_->rest(tv[kTetEdge[e][0]]) - mesh_->rest(tv[kTetEdge[e][1]])).squaredNorm(),
-                e};
-  std::sort(edges.begin(), edges.end());
-  for (int k = 0; k < 6; ++k) {
-    const int e = edges[k].second;
-    heap_.push({q + 1e-9 * k, tv[kTetEdge[e][0]], tv[kTetEdge[e][1]],
-                stampOf(tv[kTetEdge[e][0]], tv[kTetEdge[e][1]])});
-  }
-  // Then its vertices, in case no edge may go: a move may let one go later.
-  if (smoothing_)
-    for (int k = 0; k < 4; ++k) heap_.push({q + 1e-8 + 1e-9 * k, tv[k], -1, stampOf(tv[k], tv[k])});
+  if (q < tau_) heap_.push({q, t, mesh_->tet(t), stampOf(mesh_->tet(t))});
 }
 
 void CollapseQueue::touched(int s, const std::function<bool(int)>& created_by_cut) {
@@ -72,17 +60,90 @@ void CollapseQueue::touched(int s, const std::function<bool(int)>& created_by_cu
     if (created_by_cut(t)) queueTet(t);
 }
 
-long long CollapseQueue::keyOf(const Entry& e) {
-  const long long lo = e.b < 0 ? e.a : std::min(e.a, e.b), hi = e.b < 0 ? -1 : std::max(e.a, e.b);
+long long CollapseQueue::keyOf(int a, int b) {
+  // b < 0: vertex a's smoothing
+  const long long lo = b < 0 ? a : std::min(a, b), hi = b < 0 ? -1 : std::max(a, b);
   return (lo << 32) ^ (hi & 0xffffffffLL);
 }
 
-bool CollapseQueue::alreadyRefused(const Entry& e) const {
-  const auto it = refused_.find(keyOf(e));
-  return it != refused_.end() && it->second == e.stamp;
+bool CollapseQueue::alreadyRefused(int a, int b) const {
+  const auto it = refused_.find(keyOf(a, b));
+  return it != refused_.end() && it->second == stampOf(a, b < 0 ? a : b);
 }
 
-void CollapseQueue::refused(const Entry& e) { refused_[keyOf(e)] = e.stamp; }
+void CollapseQueue::refused(int a, int b) { refused_[keyOf(a, b)] = stampOf(a, b < 0 ? a : b); }
+
+bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
+                                 ChangeRecord* change) {
+  // Every edge of the tet, each both ways where allowed (see checkCollapse); the one leaving the
+  // best worst quality goes, shorter first among equals.
+  CollapseCheck best;
+  double best_length = 0.0;
+  for (const auto& edge : kTetEdge) {
+    const int a = tv[edge[0]], b = tv[edge[1]];
+    if (alreadyRefused(a, b)) continue;  // nothing changed around it since it was refused
+    CollapseCheck check = checkCollapse(*mesh_, a, b, shape_tolerance_);
+    if (check.refusal == CollapseRefusal::kNone && shape_tolerance_ > 0.0 &&
+        std::abs(volume_changed_ + check.volume_change) > volume_budget_)
+      check.refusal = CollapseRefusal::kBoundary;  // the rest volume would drift too far
+    switch (check.refusal) {
+      case CollapseRefusal::kLink:
+        ++counts_.rejected_link;
+        break;
+      case CollapseRefusal::kBoundary:
+        ++counts_.rejected_boundary;
+        break;
+      case CollapseRefusal::kInversion:
+        ++counts_.rejected_inversion;
+        break;
+      case CollapseRefusal::kQuality:
+        ++counts_.rejected_quality;
+        break;
+      case CollapseRefusal::kNone:
+        break;
+    }
+    if (check.refusal != CollapseRefusal::kNone) {
+      refused(a, b);
+      continue;
+    }
+    const double length = (mesh_->rest(a) - mesh_->rest(b)).norm();
+    if (best.removed < 0 || check.worst_after > best.worst_after + 1e-12 ||
+        (check.worst_after > best.worst_after - 1e-12 && length < best_length)) {
+      best = check;
+      best_length = length;
+    }
+  }
+  if (best.removed < 0) return false;
+  ChangeRecord local;
+  mesh_->mergeVertices(best.removed, best.survivor, &local);
+  if (shape_tolerance_ > 0.0) volume_changed_ += best.volume_change;
+  ++counts_.collapsed_edges;
+  counts_.removed_tetrahedra +=
+      static_cast<int>(local.removed_tets.size()) - static_cast<int>(local.added_tets.size());
+  change->append(local);
+  touched(best.survivor, created_by_cut);
+  return true;
+}
+
+bool CollapseQueue::smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
+                              ChangeRecord* change) {
+  if (static_cast<int>(moves_.size()) < mesh_->vertexSlots())
+    moves_.resize(mesh_->vertexSlots(), 0);
+  for (int v : tv) {
+    if ((pinned_ && pinned_(v)) || moves_[v] >= kMaxMoves || alreadyRefused(v, -1)) continue;
+    ChangeRecord local;
+    if (!smoothVertex(mesh_, v, kMinSmoothingGain, &local)) {
+      refused(v, -1);
+      continue;
+    }
+    ++moves_[v];
+    ++counts_.smoothed_vertices;
+    change->append(local);
+    touched(v, created_by_cut);
+    return true;
+  }
+  return false;
+}
 
 void CollapseQueue::queueFrom(const ChangeRecord& change,
                               const std::function<bool(int)>& created_by_cut) {
@@ -99,75 +160,26 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start)
         .count();
   };
-  // At least one collapse attempt a tick, so that a small budget still makes progress; stale and
-  // busy entries cost next to nothing and do not count.
+  // At least one tet worked a tick, so that a small budget still makes progress; stale and busy
+  // entries cost next to nothing and do not count.
   bool attempted = false;
   while (!heap_.empty() && (!attempted || budget_us_ <= 0 || elapsed_us() < budget_us_)) {
     const Entry e = heap_.top();
     heap_.pop();
-    if (e.b < 0) {
-      if (!mesh_->vertexAlive(e.a) || e.stamp != stampOf(e.a, e.a)) continue;
-      if (busy(e.a)) {
-        waiting_.push_back(e);
-        continue;
-      }
-      if (pinned_ && pinned_(e.a)) continue;
-      if (static_cast<int>(moves_.size()) < mesh_->vertexSlots())
-        moves_.resize(mesh_->vertexSlots(), 0);
-      if (moves_[e.a] >= kMaxMoves || alreadyRefused(e)) continue;
-      attempted = true;
-      ChangeRecord local;
-      if (!smoothVertex(mesh_, e.a, kMinSmoothingGain, &local)) {
-        refused(e);
-      } else {
-        ++moves_[e.a];
-        ++counts_.smoothed_vertices;
-        change->append(local);
-        touched(e.a, created_by_cut);
-      }
+    // Gone (its slot may hold another tet): dropped. Its neighbourhood changed since: queued
+    // again as it is now (touched() queues only the tets around the changed vertex itself).
+    if (!mesh_->tetAlive(e.tet) || mesh_->tet(e.tet) != e.verts) continue;
+    if (e.stamp != stampOf(e.verts)) {
+      queueTet(e.tet);
       continue;
     }
-    if (!mesh_->vertexAlive(e.a) || !mesh_->vertexAlive(e.b)) continue;
-    if (e.stamp != stampOf(e.a, e.b)) continue;  // the neighbourhood changed since: stale
-    if (mesh_->edgeTets(e.a, e.b).empty()) continue;
-    if (busy(e.a) || busy(e.b)) {
+    if (std::any_of(e.verts.begin(), e.verts.end(), busy)) {
       waiting_.push_back(e);
       continue;
     }
-    if (alreadyRefused(e)) continue;  // queued by several tets; nothing changed since
     attempted = true;
-    CollapseCheck check = checkCollapse(*mesh_, e.a, e.b, shape_tolerance_);
-    if (check.refusal == CollapseRefusal::kNone && shape_tolerance_ > 0.0 &&
-        std::abs(volume_changed_ + check.volume_change) > volume_budget_)
-      check.refusal = CollapseRefusal::kBoundary;  // the rest volume would drift too far
-    if (check.refusal != CollapseRefusal::kNone) {
-      refused(e);
-      switch (check.refusal) {
-        case CollapseRefusal::kLink:
-          ++counts_.rejected_link;
-          break;
-        case CollapseRefusal::kBoundary:
-          ++counts_.rejected_boundary;
-          break;
-        case CollapseRefusal::kInversion:
-          ++counts_.rejected_inversion;
-          break;
-        case CollapseRefusal::kQuality:
-          ++counts_.rejected_quality;
-          break;
-        case CollapseRefusal::kNone:
-          break;
-      }
-      continue;
-    }
-    ChangeRecord local;
-    mesh_->mergeVertices(check.removed, check.survivor, &local);
-    if (shape_tolerance_ > 0.0) volume_changed_ += check.volume_change;
-    ++counts_.collapsed_edges;
-    counts_.removed_tetrahedra +=
-        static_cast<int>(local.removed_tets.size()) - static_cast<int>(local.added_tets.size());
-    change->append(local);
-    touched(check.survivor, created_by_cut);
+    if (!collapseBest(e.verts, created_by_cut, change) && smoothing_)
+      smoothAny(e.verts, created_by_cut, change);
   }
   counts_.time_ms += elapsed_us() / 1000.0;
 }
