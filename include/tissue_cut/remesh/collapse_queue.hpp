@@ -88,6 +88,7 @@ class CollapseQueue {
   std::vector<long long> vertex_stamp_;               // bumped when a vertex's star changes
   std::vector<Entry> waiting_;                        // busy this tick, back in the heap next tick
   std::unordered_map<long long, long long> refused_;  // edge or vertex -> its stamp when refused
+  std::vector<std::pair<TetVerts, long long>> queued_;  // per tet slot: the entry in the heap
   std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
   bool smoothing_ = true;
   double shape_tolerance_ = 0.0, volume_budget_ = 0.0, volume_changed_ = 0.0;

@@ -27,6 +27,7 @@ void CollapseQueue::clear() {
   vertex_stamp_.clear();
   moves_.clear();
   refused_.clear();
+  queued_.clear();
   volume_changed_ = 0.0;
   counts_ = CollapseCounts{};
 }
@@ -44,8 +45,15 @@ long long CollapseQueue::stampOf(const TetVerts& tv) const {
 
 void CollapseQueue::queueTet(int t) {
   if (!mesh_->tetAlive(t)) return;
+  const TetVerts& tv = mesh_->tet(t);
+  const long long stamp = stampOf(tv);
+  if (static_cast<int>(queued_.size()) < mesh_->tetSlots())
+    queued_.resize(mesh_->tetSlots(), {TetVerts{-1, -1, -1, -1}, -1});
+  if (queued_[t].first == tv && queued_[t].second == stamp) return;  // already queued as it is
   const double q = restQuality(*mesh_, t);
-  if (q < tau_) heap_.push({q, t, mesh_->tet(t), stampOf(mesh_->tet(t))});
+  if (!(q < tau_)) return;
+  heap_.push({q, t, tv, stamp});
+  queued_[t] = {tv, stamp};
 }
 
 void CollapseQueue::touched(int s, const std::function<bool(int)>& created_by_cut) {
@@ -177,6 +185,7 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
       waiting_.push_back(e);
       continue;
     }
+    queued_[e.tet].second = -1;  // worked: it may be queued again
     attempted = true;
     if (!collapseBest(e.verts, created_by_cut, change) && smoothing_)
       smoothAny(e.verts, created_by_cut, change);
