@@ -36,7 +36,7 @@ struct Config {
 
   struct Collapse {
     bool enabled = true;
-    double tau = 0.3;          ///< quality threshold: created tets below it queue an edge
+    double tau = 0.6;          ///< created tets with Q below it queue their edges and vertices
     double budget_us = 300.0;  ///< collapse work per tick [us]; 0 = unbounded
   } collapse;
 

@@ -44,7 +44,8 @@ struct Statistics {
   struct {
     int collapsed_edges = 0, removed_tetrahedra = 0, pending = 0;  ///< #RmT = removed_tetrahedra
     int rejected_link = 0, rejected_inversion = 0, rejected_quality = 0, rejected_boundary = 0;
-    double time_ms = 0.0;  ///< t.EC
+    int smoothed_vertices = 0;  ///< smoothing moves (our extension, see vertex_smoothing.hpp)
+    double time_ms = 0.0;       ///< t.EC
   } collapse;
   struct {
     int tetrahedra = 0;  ///< tets made by cuts that remain

@@ -54,6 +54,7 @@ nlohmann::json Statistics::toJson() const {
   j["collapse"] = {{"collapsed_edges", collapse.collapsed_edges},
                    {"removed_tetrahedra", collapse.removed_tetrahedra},
                    {"pending", collapse.pending},
+                   {"smoothed_vertices", collapse.smoothed_vertices},
                    {"rejected",
                     {{"link", collapse.rejected_link},
                      {"inversion", collapse.rejected_inversion},

@@ -84,8 +84,8 @@ TEST(Collapse, CrackStoppingInsideKeepsItsTopology) {
 
 TEST(Collapse, ABudgetLeavesWorkQueuedForLaterTicks) {
   const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
-  // 20 us a tick is far less than the cut queues while the blade runs (measured: about 1,000
-  // ticks of settling drain it).
+  // 20 us a tick is far less than the cut queues while the blade runs (measured: about 1,900
+  // ticks of settling drain it, one queued tet a tick).
   Tissue tissue(withCollapse(true, 0.06, 20.0), makeBlock());
   ASSERT_EQ(replay(tissue, path), "");
   const int queued = tissue.statistics().collapse.pending;

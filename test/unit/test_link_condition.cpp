@@ -15,6 +15,7 @@
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
+#include "tissue_cut/mesh/topology.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
 #include "tissue_cut/remesh/link_condition.hpp"
 
@@ -366,4 +367,65 @@ TEST(EdgeCollapse, CollapsingTheShortEdgeOfASliverImprovesTheWorstQuality) {
   EXPECT_GT(check.worst_after, check.worst_before);
   EXPECT_GT(summarizeQuality(mesh).min, worst_mesh_before);
   EXPECT_EQ(mesh.validate(), "");
+}
+
+// Boundary collapses with a shape tolerance: a 2 x 2 x 1 block whose top vertex (1, 1, 1) sits
+// at (x, 1, 1 + h), next to the crease vertex (0, 1, 1) on the top's edge.
+namespace {
+
+struct BumpedTop {
+  TetMesh mesh;
+  int bump, crease;
+};
+
+BumpedTop bumpedTop(double x, double h) {
+  MeshData m = unitBlock(2, 2, 1);
+  const int bump = rowAt(m.V, Vec3(1, 1, 1)), crease = rowAt(m.V, Vec3(0, 1, 1));
+  m.V.row(bump) = Vec3(x, 1, 1 + h).transpose();
+  return {TetMesh(m.V, m.T), bump, crease};
+}
+
+}  // namespace
+
+TEST(EdgeCollapse, BoundaryEdgeOnAFlatFaceCollapsesAndKeepsTheSurfaceClosed) {
+  BumpedTop b = bumpedTop(0.2, 0.0);
+  ASSERT_EQ(b.mesh.validate(), "");
+  const int euler = boundaryEulerCharacteristic(b.mesh);
+  const double volume = b.mesh.restVolume();
+  ASSERT_TRUE(isBoundaryEdge(b.mesh, b.bump, b.crease));
+  CollapseCheck check;
+  ASSERT_TRUE(collapseEdge(&b.mesh, b.bump, b.crease, nullptr, &check, 0.08))
+      << toString(check.refusal);
+  EXPECT_EQ(check.removed, b.bump);  // the crease vertex would leave the side face: it stays
+  EXPECT_EQ(b.mesh.validate(), "");  // closed, consistently oriented 2-manifold boundary
+  EXPECT_EQ(boundaryEulerCharacteristic(b.mesh), euler);
+  EXPECT_NEAR(b.mesh.restVolume(), volume, 1e-12 * volume);
+  EXPECT_GT(check.worst_after, check.worst_before);
+}
+
+TEST(EdgeCollapse, SlightlyBentBoundaryCollapsesOnlyWithAShapeTolerance) {
+  // The top bulges by 2% of an edge at the bump: exactly the old volume rule refuses, the
+  // tolerance (faces may leave their planes by 8% of their size) lets it go.
+  const BumpedTop b = bumpedTop(0.2, 0.02);
+  EXPECT_EQ(checkCollapse(b.mesh, b.bump, b.crease).refusal, CollapseRefusal::kBoundary);
+  const CollapseCheck check = checkCollapse(b.mesh, b.bump, b.crease, 0.08);
+  EXPECT_EQ(check.refusal, CollapseRefusal::kNone);
+  EXPECT_LT(check.volume_change, 0.0);  // part of the bulge is flattened
+  EXPECT_GT(check.volume_change, -0.03);
+}
+
+TEST(EdgeCollapse, StronglyBentBoundaryIsRefusedEvenWithAShapeTolerance) {
+  const BumpedTop b = bumpedTop(0.2, 0.3);
+  EXPECT_EQ(checkCollapse(b.mesh, b.bump, b.crease, 0.08).refusal, CollapseRefusal::kBoundary);
+}
+
+TEST(EdgeCollapse, ShapeToleranceRefusesACreaseVertexLeavingItsPlanesAtAnUnchangedVolume) {
+  // With the bump at (0.1, 1, 1.3) the crease vertex could move onto it with the star's volume
+  // balanced exactly (what went out on one side came in on the other), which the volume rule
+  // alone accepts; its faces would leave both planes of the crease by far more than 8%.
+  const BumpedTop b = bumpedTop(0.1, 0.3);
+  const CollapseCheck by_volume = checkCollapse(b.mesh, b.bump, b.crease);
+  ASSERT_EQ(by_volume.refusal, CollapseRefusal::kNone);
+  ASSERT_EQ(by_volume.removed, b.crease);
+  EXPECT_EQ(checkCollapse(b.mesh, b.bump, b.crease, 0.08).refusal, CollapseRefusal::kBoundary);
 }

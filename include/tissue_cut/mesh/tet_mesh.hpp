@@ -114,6 +114,11 @@ class TetMesh {
                                ChangeRecord* record, const std::vector<int>* from = nullptr);
   /// Removes a vertex that no tet uses any more.
   void removeVertex(int v, ChangeRecord* record);
+  /// Moves vertex v to the parents' weighted sums of rest and current positions and velocities
+  /// (`parents` may name v itself; weights sum to 1), then announces its star as replaced by the
+  /// same tets (added_from = themselves), so masses and springs follow. The caller makes sure no
+  /// tet of the star inverts. Throws std::logic_error for a dead vertex or parent.
+  void moveVertex(int v, const std::vector<VertexParent>& parents, ChangeRecord* record);
   /// Moves every tet of `removed` onto `survivor`; tets holding both vanish; `removed` dies.
   /// Geometry of the survivor is unchanged.
   void mergeVertices(int removed, int survivor, ChangeRecord* record);

@@ -1,11 +1,14 @@
 // CollapseQueue: the paper's on-the-fly edge collapse. Tets a cut creates with quality Q < tau
-// queue their shortest edge, lowest Q first; each tick the queue is worked off within a time
-// budget, skipping edges next to tets still being cut.
+// are queued, lowest Q first; each tick the queue is worked off within a time budget, skipping
+// tets next to tets still being cut. A tet's six edges are checked (each both ways where allowed)
+// and the collapse leaving the best worst quality is taken. Our extension: when none may go, one
+// of its vertices is smoothed (see vertex_smoothing.hpp), which often lets a collapse through
+// later. An edge or vertex refused is not checked again until its neighbourhood changes.
 #pragma once
 
 #include <functional>
 #include <queue>
-#include <unordered_set>
+#include <unordered_map>
 #include <vector>
 
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -17,7 +20,8 @@ struct CollapseCounts {
   int collapsed_edges = 0;
   int removed_tetrahedra = 0;  ///< #RmT
   int rejected_link = 0, rejected_inversion = 0, rejected_quality = 0, rejected_boundary = 0;
-  double time_ms = 0.0;  ///< t.EC
+  int smoothed_vertices = 0;  ///< accepted smoothing moves
+  double time_ms = 0.0;       ///< t.EC
 };
 
 class CollapseQueue {
@@ -25,51 +29,70 @@ class CollapseQueue {
   /// tau: quality threshold; budget_us: work per call of process() [us], 0 = unbounded.
   CollapseQueue(TetMesh* mesh, double tau, double budget_us);
 
-  /// Queues the shortest edge of every added tet of `change` whose rest Q is below tau, when
-  /// `created_by_cut` says the tet was made by a cut.
+  /// Queues every added tet of `change` whose rest Q is below tau, when `created_by_cut` says the
+  /// tet was made by a cut.
   void queueFrom(const ChangeRecord& change, const std::function<bool(int)>& created_by_cut);
 
   /// Works the queue within the budget. `busy(v)` tells vertices that must not move (next to a
-  /// tet still being cut): their edges wait. Edges of tets `created_by_cut` around a collapsed
-  /// vertex are queued again. Appends the changes to `change`.
+  /// tet still being cut): tets holding them wait. Tets `created_by_cut` around a collapsed or
+  /// moved vertex are queued again. Appends the changes to `change`.
   void process(const std::function<bool(int)>& busy, const std::function<bool(int)>& created_by_cut,
                ChangeRecord* change);
 
-  /// Queued edges, those waiting for a busy neighbourhood included (some may have gone stale).
+  /// Queued tets, those waiting for a busy neighbourhood included (some may have gone stale).
   int pending() const { return static_cast<int>(heap_.size() + waiting_.size()); }
   const CollapseCounts& counts() const { return counts_; }
   void setTau(double tau) { tau_ = tau; }
   void setBudget(double budget_us) { budget_us_ = budget_us; }
+  /// Boundary collapses may tilt the boundary faces that move by up to `shape_tolerance` (relative
+  /// to each face's longest edge, see checkCollapse), as long as the net rest volume they change
+  /// stays within `volume_budget` [m^3]. Default 0, 0: the boundary keeps its shape exactly.
+  void setShapeTolerance(double shape_tolerance, double volume_budget) {
+    shape_tolerance_ = shape_tolerance;
+    volume_budget_ = volume_budget;
+  }
+  /// Net rest volume changed so far by boundary collapses [m^3].
+  double volumeChanged() const { return volume_changed_; }
+  /// Smoothing on or off (on by default); `pinned(v)` names vertices that must never move (e.g.
+  /// fixed by the physics), on top of the busy ones.
+  void setSmoothing(bool enabled, std::function<bool(int)> pinned = nullptr) {
+    smoothing_ = enabled;
+    pinned_ = std::move(pinned);
+  }
   void clear();
 
  private:
   struct Entry {
     double quality;
-    int a, b;
-    long long stamp;  // the sum of the two vertices' stamps when queued
+    int tet;
+    TetVerts verts;   // the tet when queued (its slot may be reused)
+    long long stamp;  // the sum of its vertices' stamps when queued
     bool operator<(const Entry& o) const { return quality > o.quality; }  // min-heap
   };
-  struct Key {  // an entry's edge and stamp: the same one is never queued twice
-    int a, b;
-    long long stamp;
-    bool operator==(const Key& o) const { return a == o.a && b == o.b && stamp == o.stamp; }
-  };
-  struct KeyHash {
-    std::size_t operator()(const Key& k) const {
-      return std::hash<long long>()((static_cast<long long>(k.a) * 1000003LL + k.b) * 1000003LL +
-                                    k.stamp);
-    }
-  };
-  static Key keyOf(const Entry& e) { return {std::min(e.a, e.b), std::max(e.a, e.b), e.stamp}; }
   void queueTet(int t);
   long long stampOf(int a, int b) const;
+  long long stampOf(const TetVerts& tv) const;
+  void touched(int v, const std::function<bool(int)>& created_by_cut);
+  // The best accepted collapse of an edge of tv, if any; else one smoothing move of a vertex.
+  bool collapseBest(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
+                    ChangeRecord* change);
+  bool smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
+                 ChangeRecord* change);
+  static long long keyOf(int a, int b);
+  bool alreadyRefused(int a, int b) const;
+  void refused(int a, int b);
 
   TetMesh* mesh_;
   double tau_, budget_us_;
   std::priority_queue<Entry> heap_;
-  std::vector<long long> vertex_stamp_;  // bumped when a vertex's star changes
-  std::vector<Entry> waiting_;           // busy this tick, back in the heap next tick
-  std::unordered_set<Key, KeyHash> queued_;  // keys in heap_ or waiting_
+  std::vector<long long> vertex_stamp_;               // bumped when a vertex's star changes
+  std::vector<Entry> waiting_;                        // busy this tick, back in the heap next tick
+  std::unordered_map<long long, long long> refused_;  // edge or vertex -> its stamp when refused
+  std::vector<std::pair<TetVerts, long long>> queued_;  // per tet slot: the entry in the heap
+  std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
+  bool smoothing_ = true;
+  double shape_tolerance_ = 0.0, volume_budget_ = 0.0, volume_changed_ = 0.0;
+  std::function<bool(int)> pinned_;
   CollapseCounts counts_;
 };
 

@@ -18,11 +18,21 @@ struct CollapseCheck {
   /// Worst rest Q over the tets of that star that live on with `survivor` in place of `removed`
   /// (1 when none does); 0 when refused before it was known (kBoundary, kLink, kInversion).
   double worst_after = 0.0;
+  /// Rest volume the star would gain (negative: lose) [m^3]; 0 when refused before it was known.
+  double volume_change = 0.0;
 };
 
 /// Smallest accepted volume of a tet after a collapse, relative to its longest edge cubed (a
 /// regular tet has 0.118): below it the tet counts as flattened.
 constexpr double kMinCollapseRelativeVolume = 1e-6;
+
+/// Inputs: the corners of a tet [m]. Output: whether its signed volume exceeds
+/// kMinCollapseRelativeVolume * (longest edge)^3 (positive and not flattened).
+bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
+
+/// Inputs: the corners of a tet [m]. Output: whether its signed volume exceeds
+/// kMinCollapseRelativeVolume * (longest edge)^3 (positive and not flattened).
+bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 
 /// Decides how edge ab would collapse and whether it may.
 /// Inputs: mesh; a, b two live vertices joined by an edge. Output: the check (see CollapseCheck).
@@ -37,18 +47,22 @@ constexpr double kMinCollapseRelativeVolume = 1e-6;
 ///  - kLink: linkConditionHolds(mesh, a, b) is false.
 ///  - kInversion: a tet of the moved vertex's star not holding both ends would have signed volume
 ///    at most kMinCollapseRelativeVolume * (longest edge)^3 in rest or in current positions.
-///  - kBoundary also: the rest volume of the moved vertex's star would change by more than 1e-6
-///    (relative), i.e. a boundary vertex would slide off a flat patch (corner, crease, crack rim).
+///  - kBoundary also, with shape_tolerance = 0: the rest volume of the moved vertex's star would
+///    change by more than 1e-6 (relative), i.e. a boundary vertex would slide off a flat patch
+///    (corner, crease, crack rim). With shape_tolerance > 0 (dimensionless): a boundary face
+///    through the moved vertex would leave its plane by more than shape_tolerance times its
+///    longest edge (the survivor's distance from that plane), so a short edge on a curved cut or
+///    a kinked rim may go while every face keeps its place within that tolerance.
 ///  - kQuality: worst_after < worst_before (rest positions, Q = 3 r_in / R_circ).
 /// Throws std::invalid_argument when ab is not an edge of live tets.
-CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b);
+CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance = 0.0);
 
 /// Collapses edge ab if checkCollapse accepts it: TetMesh::mergeVertices(removed, survivor,
 /// record), so the survivor keeps its own rest and current positions.
 /// Inputs: mesh; a, b as for checkCollapse; record (may be null) receives the change.
 /// Outputs: true when collapsed; false (mesh and record unchanged) when refused; *check (if
 /// given) the decision either way.
-bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record,
-                  CollapseCheck* check = nullptr);
+bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record, CollapseCheck* check = nullptr,
+                  double shape_tolerance = 0.0);
 
 }  // namespace tissue_cut

@@ -386,6 +386,26 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
   return ids;
 }
 
+void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, ChangeRecord* record) {
+  if (v < 0 || v >= vertexSlots() || !vertex_alive_[v])
+    throw std::logic_error("TetMesh::moveVertex: dead vertex " + std::to_string(v));
+  Vec3 r = Vec3::Zero(), c = Vec3::Zero(), u = Vec3::Zero();
+  for (const VertexParent& p : parents) {
+    if (p.vertex < 0 || p.vertex >= vertexSlots() || !vertex_alive_[p.vertex])
+      throw std::logic_error("TetMesh::moveVertex: dead parent vertex " + std::to_string(p.vertex));
+    r += p.weight * rest_[p.vertex];
+    c += p.weight * current_[p.vertex];
+    u += p.weight * velocity_[p.vertex];
+  }
+  rest_[v] = r;
+  current_[v] = c;
+  velocity_[v] = u;
+  const std::vector<int> star = vertex_tets_[v];
+  std::vector<TetVerts> same;
+  for (int t : star) same.push_back(tets_[t]);
+  replaceTets(star, same, record, &star);
+}
+
 void TetMesh::mergeVertices(int removed, int survivor, ChangeRecord* record) {
   if (removed == survivor || !vertex_alive_[removed] || !vertex_alive_[survivor])
     throw std::logic_error("TetMesh::mergeVertices: needs two distinct live vertices");

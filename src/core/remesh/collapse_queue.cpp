@@ -3,11 +3,20 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <set>
 
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/remesh/vertex_smoothing.hpp"
 
 namespace tissue_cut {
+
+namespace {
+// A smoothing move must raise its star's worst Q by this much, and a vertex moves at most
+// kMaxMoves times: the queue cannot cycle.
+constexpr double kMinSmoothingGain = 1e-3;
+constexpr int kMaxMoves = 8;
+}  // namespace
 
 CollapseQueue::CollapseQueue(TetMesh* mesh, double tau, double budget_us)
     : mesh_(mesh), tau_(tau), budget_us_(budget_us) {}
@@ -15,8 +24,11 @@ CollapseQueue::CollapseQueue(TetMesh* mesh, double tau, double budget_us)
 void CollapseQueue::clear() {
   heap_ = {};
   waiting_.clear();
-  queued_.clear();
   vertex_stamp_.clear();
+  moves_.clear();
+  refused_.clear();
+  queued_.clear();
+  volume_changed_ = 0.0;
   counts_ = CollapseCounts{};
 }
 
@@ -27,26 +39,118 @@ long long CollapseQueue::stampOf(int a, int b) const {
   return at(a) + at(b);
 }
 
+long long CollapseQueue::stampOf(const TetVerts& tv) const {
+  return stampOf(tv[0], tv[1]) + stampOf(tv[2], tv[3]);
+}
+
 void CollapseQueue::queueTet(int t) {
   if (!mesh_->tetAlive(t)) return;
+  const TetVerts& tv = mesh_->tet(t);
+  const long long stamp = stampOf(tv);
+  if (static_cast<int>(queued_.size()) < mesh_->tetSlots())
+    queued_.resize(mesh_->tetSlots(), {TetVerts{-1, -1, -1, -1}, -1});
+  if (queued_[t].first == tv && queued_[t].second == stamp) return;  // already queued as it is
   const double q = restQuality(*mesh_, t);
   if (!(q < tau_)) return;
-  // The shortest edge first (the paper's choice); the others of the same tet follow it, so that a
-  // sliver whose shortest edge may not go (it would flatten a neighbour) can still go another way.
-  const TetVerts& tv = mesh_->tet(t);
-  std::array<std::pair<double, int>, 6> edges;
-  for (int e = 0; e < 6; ++e)
-    edges[e] = {(mesh_->rest(tv[kTetEdge[e][0]]) - mesh_->rest(tv[kTetEdge[e][1]])).squaredNorm(),
-                e};
-  std::sort(edges.begin(), edges.end());
-  for (int k = 0; k < 6; ++k) {
-    const int e = edges[k].second;
-    const Entry entry{q + 1e-9 * k, tv[kTetEdge[e][0]], tv[kTetEdge[e][1]],
-                      stampOf(tv[kTetEdge[e][0]], tv[kTetEdge[e][1]])};
-    // Tets around one edge queue it alike; once is enough (edges next to a cut that has not
-    // opened may wait for many ticks, and copies would pile up).
-    if (queued_.insert(keyOf(entry)).second) heap_.push(entry);
+  heap_.push({q, t, tv, stamp});
+  queued_[t] = {tv, stamp};
+}
+
+void CollapseQueue::touched(int s, const std::function<bool(int)>& created_by_cut) {
+  // Everything around s changed: old entries there go stale, its bad tets requeue.
+  if (static_cast<int>(vertex_stamp_.size()) < mesh_->vertexSlots())
+    vertex_stamp_.resize(mesh_->vertexSlots(), 0);
+  std::set<int> around;
+  for (int t : mesh_->vertexTets(s))
+    for (int v : mesh_->tet(t)) around.insert(v);
+  for (int v : around) ++vertex_stamp_[v];
+  for (int t : mesh_->vertexTets(s))
+    if (created_by_cut(t)) queueTet(t);
+}
+
+long long CollapseQueue::keyOf(int a, int b) {
+  // b < 0: vertex a's smoothing
+  const long long lo = b < 0 ? a : std::min(a, b), hi = b < 0 ? -1 : std::max(a, b);
+  return (lo << 32) ^ (hi & 0xffffffffLL);
+}
+
+bool CollapseQueue::alreadyRefused(int a, int b) const {
+  const auto it = refused_.find(keyOf(a, b));
+  return it != refused_.end() && it->second == stampOf(a, b < 0 ? a : b);
+}
+
+void CollapseQueue::refused(int a, int b) { refused_[keyOf(a, b)] = stampOf(a, b < 0 ? a : b); }
+
+bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
+                                 ChangeRecord* change) {
+  // Every edge of the tet, each both ways where allowed (see checkCollapse); the one leaving the
+  // best worst quality goes, shorter first among equals.
+  CollapseCheck best;
+  double best_length = 0.0;
+  for (const auto& edge : kTetEdge) {
+    const int a = tv[edge[0]], b = tv[edge[1]];
+    if (alreadyRefused(a, b)) continue;  // nothing changed around it since it was refused
+    CollapseCheck check = checkCollapse(*mesh_, a, b, shape_tolerance_);
+    if (check.refusal == CollapseRefusal::kNone && shape_tolerance_ > 0.0 &&
+        std::abs(volume_changed_ + check.volume_change) > volume_budget_)
+      check.refusal = CollapseRefusal::kBoundary;  // the rest volume would drift too far
+    switch (check.refusal) {
+      case CollapseRefusal::kLink:
+        ++counts_.rejected_link;
+        break;
+      case CollapseRefusal::kBoundary:
+        ++counts_.rejected_boundary;
+        break;
+      case CollapseRefusal::kInversion:
+        ++counts_.rejected_inversion;
+        break;
+      case CollapseRefusal::kQuality:
+        ++counts_.rejected_quality;
+        break;
+      case CollapseRefusal::kNone:
+        break;
+    }
+    if (check.refusal != CollapseRefusal::kNone) {
+      refused(a, b);
+      continue;
+    }
+    const double length = (mesh_->rest(a) - mesh_->rest(b)).norm();
+    if (best.removed < 0 || check.worst_after > best.worst_after + 1e-12 ||
+        (check.worst_after > best.worst_after - 1e-12 && length < best_length)) {
+      best = check;
+      best_length = length;
+    }
   }
+  if (best.removed < 0) return false;
+  ChangeRecord local;
+  mesh_->mergeVertices(best.removed, best.survivor, &local);
+  if (shape_tolerance_ > 0.0) volume_changed_ += best.volume_change;
+  ++counts_.collapsed_edges;
+  counts_.removed_tetrahedra +=
+      static_cast<int>(local.removed_tets.size()) - static_cast<int>(local.added_tets.size());
+  change->append(local);
+  touched(best.survivor, created_by_cut);
+  return true;
+}
+
+bool CollapseQueue::smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
+                              ChangeRecord* change) {
+  if (static_cast<int>(moves_.size()) < mesh_->vertexSlots())
+    moves_.resize(mesh_->vertexSlots(), 0);
+  for (int v : tv) {
+    if ((pinned_ && pinned_(v)) || moves_[v] >= kMaxMoves || alreadyRefused(v, -1)) continue;
+    ChangeRecord local;
+    if (!smoothVertex(mesh_, v, kMinSmoothingGain, &local)) {
+      refused(v, -1);
+      continue;
+    }
+    ++moves_[v];
+    ++counts_.smoothed_vertices;
+    change->append(local);
+    touched(v, created_by_cut);
+    return true;
+  }
+  return false;
 }
 
 void CollapseQueue::queueFrom(const ChangeRecord& change,
@@ -64,57 +168,27 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start)
         .count();
   };
-  // At least one collapse attempt a tick, so that a small budget still makes progress; stale and
-  // busy entries cost next to nothing and do not count.
+  // At least one tet worked a tick, so that a small budget still makes progress; stale and busy
+  // entries cost next to nothing and do not count.
   bool attempted = false;
   while (!heap_.empty() && (!attempted || budget_us_ <= 0 || elapsed_us() < budget_us_)) {
     const Entry e = heap_.top();
     heap_.pop();
-    const bool gone = !mesh_->vertexAlive(e.a) || !mesh_->vertexAlive(e.b) ||
-                      e.stamp != stampOf(e.a, e.b)  // the neighbourhood changed since: stale
-                      || mesh_->edgeTets(e.a, e.b).empty();
-    if (!gone && (busy(e.a) || busy(e.b))) {
-      waiting_.push_back(e);  // keeps its place in queued_
+    // Gone (its slot may hold another tet): dropped. Its neighbourhood changed since: queued
+    // again as it is now (touched() queues only the tets around the changed vertex itself).
+    if (!mesh_->tetAlive(e.tet) || mesh_->tet(e.tet) != e.verts) continue;
+    if (e.stamp != stampOf(e.verts)) {
+      queueTet(e.tet);
       continue;
     }
-    queued_.erase(keyOf(e));
-    if (gone) continue;
+    if (std::any_of(e.verts.begin(), e.verts.end(), busy)) {
+      waiting_.push_back(e);
+      continue;
+    }
+    queued_[e.tet].second = -1;  // worked: it may be queued again
     attempted = true;
-    ChangeRecord local;
-    CollapseCheck check;
-    if (!collapseEdge(mesh_, e.a, e.b, &local, &check)) {
-      switch (check.refusal) {
-        case CollapseRefusal::kLink:
-          ++counts_.rejected_link;
-          break;
-        case CollapseRefusal::kBoundary:
-          ++counts_.rejected_boundary;
-          break;
-        case CollapseRefusal::kInversion:
-          ++counts_.rejected_inversion;
-          break;
-        case CollapseRefusal::kQuality:
-          ++counts_.rejected_quality;
-          break;
-        case CollapseRefusal::kNone:
-          break;
-      }
-      continue;
-    }
-    ++counts_.collapsed_edges;
-    counts_.removed_tetrahedra +=
-        static_cast<int>(local.removed_tets.size()) - static_cast<int>(local.added_tets.size());
-    change->append(local);
-    // Everything around the survivor changed: old entries there go stale, its bad tets requeue.
-    const int s = check.survivor;
-    if (static_cast<int>(vertex_stamp_.size()) < mesh_->vertexSlots())
-      vertex_stamp_.resize(mesh_->vertexSlots(), 0);
-    std::set<int> around;
-    for (int t : mesh_->vertexTets(s))
-      for (int v : mesh_->tet(t)) around.insert(v);
-    for (int v : around) ++vertex_stamp_[v];
-    for (int t : mesh_->vertexTets(s))
-      if (created_by_cut(t)) queueTet(t);
+    if (!collapseBest(e.verts, created_by_cut, change) && smoothing_)
+      smoothAny(e.verts, created_by_cut, change);
   }
   counts_.time_ms += elapsed_us() / 1000.0;
 }

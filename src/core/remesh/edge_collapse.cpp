@@ -1,6 +1,8 @@
 #include "tissue_cut/remesh/edge_collapse.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <vector>
 
 #include "tissue_cut/mesh/quality.hpp"
@@ -11,18 +13,35 @@ namespace {
 
 bool contains(const TetVerts& tv, int v) { return std::find(tv.begin(), tv.end(), v) != tv.end(); }
 
-// Positive and not flattened: the threshold scales with the tet so that it means the same at every
-// mesh size, and a tiny tet made by a cut is not refused for being small.
-bool isSound(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
-  const Vec3* p[4] = {&p0, &p1, &p2, &p3};
-  double longest = 0.0;
-  for (const auto& e : kTetEdge) longest = std::max(longest, (*p[e[0]] - *p[e[1]]).norm());
-  return signedVolume(p0, p1, p2, p3) > kMinCollapseRelativeVolume * longest * longest * longest;
+// How far the boundary faces that move with `removed` would leave their planes, relative to each
+// face's longest edge.
+double boundaryDeviation(const TetMesh& mesh, int removed, int survivor) {
+  const Vec3 move = mesh.rest(survivor) - mesh.rest(removed);
+  double worst = 0.0;
+  for (int t : mesh.vertexTets(removed)) {
+    // Tets holding both ends count too: their boundary faces give way to faces through the
+    // survivor.
+    const TetVerts& tv = mesh.tet(t);
+    for (int f = 0; f < 4; ++f) {
+      if (mesh.neighbor(t, f) >= 0 || tv[f] == removed) continue;
+      const Vec3& p = mesh.rest(tv[kTetFace[f][0]]);
+      const Vec3 n = (mesh.rest(tv[kTetFace[f][1]]) - p).cross(mesh.rest(tv[kTetFace[f][2]]) - p);
+      const double len = n.norm();
+      if (!(len > 0)) return std::numeric_limits<double>::infinity();
+      double longest = 0.0;
+      for (int i = 0; i < 3; ++i)
+        longest = std::max(
+            longest,
+            (mesh.rest(tv[kTetFace[f][i]]) - mesh.rest(tv[kTetFace[f][(i + 1) % 3]])).norm());
+      worst = std::max(worst, std::abs(n.dot(move)) / len / longest);
+    }
+  }
+  return worst;
 }
 
 // The checks for moving `removed` onto `survivor`, in the order the header lists them.
 CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link_holds,
-                       bool a_boundary, bool b_boundary, int a, int b) {
+                       bool a_boundary, bool b_boundary, int a, int b, double shape_tolerance) {
   CollapseCheck check;
   check.removed = removed;
   check.survivor = survivor;
@@ -47,9 +66,9 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
     TetVerts tv = mesh.tet(t);
     if (contains(tv, check.survivor)) continue;  // vanishes with the edge
     *std::find(tv.begin(), tv.end(), check.removed) = check.survivor;
-    if (!isSound(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) ||
-        !isSound(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
-                 mesh.current(tv[3]))) {
+    if (!isSoundTet(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) ||
+        !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
+                    mesh.current(tv[3]))) {
       check.refusal = CollapseRefusal::kInversion;
       check.worst_after = 0.0;  // a flattened tet has Q = 0
       return check;
@@ -59,9 +78,16 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
     volume_after +=
         signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
   }
-  // Inside the body the star keeps its volume exactly; a change means the moved vertex was on a
-  // curved or creased part of the boundary (a corner, the crack's rim) and the shape would change.
-  if (std::abs(volume_after - volume_before) > 1e-6 * volume_before) {
+  check.volume_change = volume_after - volume_before;
+  if (shape_tolerance <= 0.0) {
+    // Inside the body the star keeps its volume exactly; a change means the moved vertex was on
+    // a curved or creased part of the boundary (a corner, the crack's rim) and the shape would
+    // change.
+    if (std::abs(check.volume_change) > 1e-6 * volume_before) {
+      check.refusal = CollapseRefusal::kBoundary;
+      return check;
+    }
+  } else if (boundaryDeviation(mesh, check.removed, check.survivor) > shape_tolerance) {
     check.refusal = CollapseRefusal::kBoundary;
     return check;
   }
@@ -71,7 +97,16 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
 
 }  // namespace
 
-CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
+// The threshold scales with the tet so that it means the same at every mesh size, and a tiny tet
+// made by a cut is not refused for being small.
+bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
+  const Vec3* p[4] = {&p0, &p1, &p2, &p3};
+  double longest = 0.0;
+  for (const auto& e : kTetEdge) longest = std::max(longest, (*p[e[0]] - *p[e[1]]).norm());
+  return signedVolume(p0, p1, p2, p3) > kMinCollapseRelativeVolume * longest * longest * longest;
+}
+
+CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance) {
   // Throws for a non-edge before anything else is read.
   const bool link_holds = linkConditionHolds(mesh, a, b);
   const bool a_boundary = isBoundaryVertex(mesh, a), b_boundary = isBoundaryVertex(mesh, b);
@@ -83,7 +118,7 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
     survivor = a_boundary ? a : b;
   }
   const CollapseCheck first =
-      evaluate(mesh, removed, survivor, link_holds, a_boundary, b_boundary, a, b);
+      evaluate(mesh, removed, survivor, link_holds, a_boundary, b_boundary, a, b, shape_tolerance);
   // When the preferred way would flatten a tet, worsen the star or bend the boundary, the other
   // way round may not (only where both ends are alike: a boundary vertex never leaves it).
   const bool geometric = first.refusal == CollapseRefusal::kInversion ||
@@ -91,12 +126,13 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b) {
                          first.refusal == CollapseRefusal::kBoundary;
   if (!geometric || a_boundary != b_boundary) return first;
   const CollapseCheck second =
-      evaluate(mesh, survivor, removed, link_holds, a_boundary, b_boundary, a, b);
+      evaluate(mesh, survivor, removed, link_holds, a_boundary, b_boundary, a, b, shape_tolerance);
   return second.refusal == CollapseRefusal::kNone ? second : first;
 }
 
-bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record, CollapseCheck* check) {
-  const CollapseCheck decided = checkCollapse(*mesh, a, b);
+bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record, CollapseCheck* check,
+                  double shape_tolerance) {
+  const CollapseCheck decided = checkCollapse(*mesh, a, b, shape_tolerance);
   if (check) *check = decided;
   if (decided.refusal != CollapseRefusal::kNone) return false;
   mesh->mergeVertices(decided.removed, decided.survivor, record);

@@ -1,0 +1,197 @@
+#include "tissue_cut/remesh/vertex_smoothing.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/remesh/edge_collapse.hpp"
+
+namespace tissue_cut {
+
+namespace {
+
+constexpr double kSameNormal = 1e-9;  // 1 - cos of the largest angle between "parallel" faces
+
+int localIndex(const TetVerts& tv, int v) {
+  return static_cast<int>(std::find(tv.begin(), tv.end(), v) - tv.begin());
+}
+
+// The tet of `star` with v at `p` (rest positions).
+std::array<Vec3, 4> restCorners(const TetMesh& mesh, int t, int v, const Vec3& p) {
+  const TetVerts& tv = mesh.tet(t);
+  std::array<Vec3, 4> c;
+  for (int k = 0; k < 4; ++k) c[k] = tv[k] == v ? p : mesh.rest(tv[k]);
+  return c;
+}
+
+// Worst rest Q of v's star with v at p; -1 when a tet is not sound.
+double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const Vec3& p) {
+  double worst = 1.0;
+  for (int t : star) {
+    const auto c = restCorners(mesh, t, v, p);
+    if (!isSoundTet(c[0], c[1], c[2], c[3])) return -1.0;
+    worst = std::min(worst, tetQuality(c[0], c[1], c[2], c[3]));
+  }
+  return worst;
+}
+
+// The point that makes tet t regular-looking over the face opposite v: above the face's centroid
+// at the height of a regular tet with the face's mean edge.
+Vec3 idealApex(const TetMesh& mesh, int t, int v) {
+  const TetVerts& tv = mesh.tet(t);
+  const int i = localIndex(tv, v);
+  const Vec3& a = mesh.rest(tv[kTetFace[i][0]]);
+  const Vec3& b = mesh.rest(tv[kTetFace[i][1]]);
+  const Vec3& c = mesh.rest(tv[kTetFace[i][2]]);
+  const Vec3 outward = (b - a).cross(c - a);  // out of the tet, so v lies on the other side
+  const double edge = ((a - b).norm() + (b - c).norm() + (c - a).norm()) / 3.0;
+  const double n = outward.norm();
+  if (!(n > 0)) return mesh.rest(v);
+  return (a + b + c) / 3.0 - outward / n * (std::sqrt(2.0 / 3.0) * edge);
+}
+
+Vec3 project(VertexFreedom freedom, const Vec3& dir, const Vec3& from, const Vec3& p) {
+  switch (freedom) {
+    case VertexFreedom::kInterior:
+      return p;
+    case VertexFreedom::kPlane:
+      return p - dir * dir.dot(p - from);
+    case VertexFreedom::kLine:
+      return from + dir * dir.dot(p - from);
+    case VertexFreedom::kPinned:
+      break;
+  }
+  return from;
+}
+
+}  // namespace
+
+VertexFreedom vertexFreedom(const TetMesh& mesh, int v, Vec3* direction) {
+  std::vector<Vec3> planes;
+  for (int t : mesh.vertexTets(v)) {
+    const TetVerts& tv = mesh.tet(t);
+    const int i = localIndex(tv, v);
+    for (int f = 0; f < 4; ++f) {
+      if (f == i || mesh.neighbor(t, f) >= 0) continue;
+      const Vec3& a = mesh.rest(tv[kTetFace[f][0]]);
+      const Vec3 n = (mesh.rest(tv[kTetFace[f][1]]) - a).cross(mesh.rest(tv[kTetFace[f][2]]) - a);
+      if (!(n.norm() > 0)) return VertexFreedom::kPinned;
+      const Vec3 u = n.normalized();
+      bool known = false;
+      for (const Vec3& w : planes) known = known || u.dot(w) >= 1.0 - kSameNormal;
+      if (!known) planes.push_back(u);
+      if (planes.size() > 2) return VertexFreedom::kPinned;
+    }
+  }
+  if (planes.empty()) return VertexFreedom::kInterior;
+  if (planes.size() == 1) {
+    if (direction) *direction = planes[0];
+    return VertexFreedom::kPlane;
+  }
+  const Vec3 line = planes[0].cross(planes[1]);
+  // Nearly opposite normals: both faces of a cut meet at v (a crack front), which must stay.
+  if (line.norm() < 1e-3) return VertexFreedom::kPinned;
+  if (direction) *direction = line.normalized();
+  return VertexFreedom::kLine;
+}
+
+bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
+                  SmoothingCheck* check) {
+  SmoothingCheck out;
+  const std::vector<int> star = mesh->vertexTets(v);
+  out.worst_before = 1.0;
+  for (int t : star) out.worst_before = std::min(out.worst_before, restQuality(*mesh, t));
+  out.worst_after = out.worst_before;
+  Vec3 dir = Vec3::Zero();
+  out.freedom = vertexFreedom(*mesh, v, &dir);
+  if (check) *check = out;
+  if (out.freedom == VertexFreedom::kPinned || star.empty()) return false;
+
+  const Vec3 origin = mesh->rest(v);
+  Vec3 mean_link = Vec3::Zero(), mean_ideal = Vec3::Zero();
+  int links = 0;
+  for (int t : star) {
+    for (int u : mesh->tet(t))
+      if (u != v) {
+        mean_link += mesh->rest(u);
+        ++links;
+      }
+    mean_ideal += idealApex(*mesh, t, v);
+  }
+  mean_link /= links;
+  mean_ideal /= static_cast<double>(star.size());
+
+  Vec3 best = origin;
+  double best_q = out.worst_before;
+  for (int round = 0; round < 4; ++round) {
+    int worst_t = star[0];
+    double worst_q = 2.0;
+    for (int t : star) {
+      const auto c = restCorners(*mesh, t, v, best);
+      const double q = tetQuality(c[0], c[1], c[2], c[3]);
+      if (q < worst_q) worst_q = q, worst_t = t;
+    }
+    // The worst tet's ideal apex as seen from the current best position's opposite face.
+    const Vec3 targets[3] = {mean_ideal, mean_link, idealApex(*mesh, worst_t, v)};
+    const Vec3 from = best;
+    bool improved = false;
+    for (const Vec3& target : targets)
+      for (double step : {1.0, 0.5, 0.25, 0.125}) {
+        const Vec3 p = project(out.freedom, dir, origin, from + step * (target - from));
+        const double q = worstWith(*mesh, star, v, p);
+        if (q > best_q + 1e-12) {
+          best_q = q;
+          best = p;
+          improved = true;
+        }
+      }
+    if (!improved) break;
+  }
+  if (!(best_q >= out.worst_before + min_gain)) return false;
+
+  // Rest volume: exact for an interior vertex; a boundary vertex must have stayed on its patch.
+  if (out.freedom != VertexFreedom::kInterior) {
+    double before = 0.0, after = 0.0;
+    for (int t : star) {
+      before += mesh->restVolume(t);
+      const auto c = restCorners(*mesh, t, v, best);
+      after += signedVolume(c[0], c[1], c[2], c[3]);
+    }
+    if (std::abs(after - before) > 1e-9 * before) return false;
+  }
+
+  // The material point at `best`: barycentric weights in the old star tet holding it.
+  std::vector<VertexParent> parents;
+  double best_min = -1e300;
+  for (int t : star) {
+    const TetVerts& tv = mesh->tet(t);
+    const Vec3 &a = mesh->rest(tv[0]), &b = mesh->rest(tv[1]), &c = mesh->rest(tv[2]),
+               &d = mesh->rest(tv[3]);
+    const double vol = signedVolume(a, b, c, d);
+    const double w[4] = {signedVolume(best, b, c, d) / vol, signedVolume(a, best, c, d) / vol,
+                         signedVolume(a, b, best, d) / vol, signedVolume(a, b, c, best) / vol};
+    const double m = std::min(std::min(w[0], w[1]), std::min(w[2], w[3]));
+    if (m > best_min) {
+      best_min = m;
+      parents = {{tv[0], w[0]}, {tv[1], w[1]}, {tv[2], w[2]}, {tv[3], w[3]}};
+    }
+  }
+  if (best_min < -1e-9) return false;  // outside the star: cannot be (sound tets cover it)
+  Vec3 current = Vec3::Zero();
+  for (const VertexParent& p : parents) current += p.weight * mesh->current(p.vertex);
+  for (int t : star) {
+    const TetVerts& tv = mesh->tet(t);
+    Vec3 c[4];
+    for (int k = 0; k < 4; ++k) c[k] = tv[k] == v ? current : mesh->current(tv[k]);
+    if (!isSoundTet(c[0], c[1], c[2], c[3])) return false;
+  }
+  mesh->moveVertex(v, parents, record);
+  out.moved = true;
+  out.worst_after = best_q;
+  out.target = mesh->rest(v);
+  if (check) *check = out;
+  return true;
+}
+
+}  // namespace tissue_cut
