@@ -325,6 +325,14 @@ void Cutter::subdivide(int pid, ChangeRecord* change) {
   const std::vector<int> old = p.pieces;
   replace(old, split.tets, change, nullptr, &ids);
   setPieces(pid, ids);
+  // With more points the subdivision may no longer need the centroid vertex an earlier one
+  // added (in current positions, a deformed tet can need it on one tick and not the next).
+  if (p.steiner >= 0 && mesh_->vertexAlive(p.steiner) && mesh_->vertexTets(p.steiner).empty()) {
+    ChangeRecord local;
+    mesh_->removeVertex(p.steiner, &local);
+    change->append(local);
+    p.steiner = -1;
+  }
 }
 
 void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) {
