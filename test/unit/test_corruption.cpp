@@ -6,6 +6,7 @@
 //
 //   TISSUE_CUT_CORRUPTION_CASES=N   cases (default 150)
 //   TISSUE_CUT_CORRUPTION_SEED=S    first seed (default 1); case i uses seed S + i
+//   TISSUE_CUT_CORRUPTION_KEEP=DIR  copy there each file read fine but refused by the model
 // The long run: TISSUE_CUT_CORRUPTION_CASES=3000 build/devel/lib/tissue_cut/test_corruption
 //
 // Inputs libFuzzer found (scripts/fuzz) are kept in test/data/fuzz_regressions/ and read here.
@@ -235,6 +236,8 @@ constexpr unsigned kAlarmSeconds = 30;
 TEST(Corruption, CorruptedProjectMeshesAreRefusedOrReadValidNeverCrashOrHang) {
   const long cases = envNumber("TISSUE_CUT_CORRUPTION_CASES", 150);
   const long first = envNumber("TISSUE_CUT_CORRUPTION_SEED", 1);
+  const char* keep = std::getenv("TISSUE_CUT_CORRUPTION_KEEP");
+  const std::string keep_dir = keep ? keep : "";
   const std::string dir = testing::TempDir() + "tissue_cut_corruption_" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
   const auto start = std::chrono::steady_clock::now();
@@ -261,6 +264,13 @@ TEST(Corruption, CorruptedProjectMeshesAreRefusedOrReadValidNeverCrashOrHang) {
       writeFile(path, corrupt(readFile(src), rng, &what));
     }
     const CaseResult r = readIsolated(path, kAlarmSeconds);
+    if (r.ok && r.outcome == kModelRefused && !keep_dir.empty()) {
+      std::filesystem::copy_file(
+          path, keep_dir + "/corrupt_" + std::to_string(seed) + src.extension().string(),
+          std::filesystem::copy_options::overwrite_existing);
+      std::printf("seed %lu (%s, %s): %s\n", static_cast<unsigned long>(seed), source.c_str(),
+                  what.c_str(), r.detail.c_str());
+    }
     if (r.ok) {
       ++counts[r.outcome == kReadValid ? 0 : r.outcome == kRefused ? 1 : 2];
     } else {
@@ -300,17 +310,41 @@ TEST(Corruption, ModelRefusesTetsThatDoNotCloseUpIntoAManifold) {
   }
 }
 
-TEST(Corruption, FuzzRegressionsAreRefusedOrReadValid) {
+TEST(Corruption, FilesThatReadButDoNotCloseUpAreRefusedByTheModel) {
+  // Found by the corruption test (seeds 38, 257, 785): a flipped byte in a node id makes tets
+  // that each look fine but overlap or pinch the boundary. readMesh() returns them (its checks are
+  // per tet); the model refuses them with validate()'s reason.
+  for (const auto& [file, reason] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"corrupt_pinched_boundary.msh", "pinched"},
+           {"corrupt_boundary_edge_twice.vtk", "one orientation"},
+           {"corrupt_same_orientation.vtk", "same orientation"}}) {
+    const MeshData m = readMesh(kSource + "/test/data/bad/" + file);
+    try {
+      Config config;
+      config.physics.enabled = false;
+      const Tissue tissue(config, m);
+      ADD_FAILURE() << file << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << file << ": " << e.what();
+    }
+  }
+}
+
+TEST(Corruption, FuzzRegressionsAreRefusedWithAMessage) {
+  // Inputs scripts/fuzz found that crashed, hung or broke readMesh()'s promises, kept after the
+  // fix. The runs so far found none (see README, Reliability), so this may have nothing to read.
   const std::filesystem::path dir = kSource + "/test/data/fuzz_regressions";
   int files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-    const std::string ext = entry.path().extension().string();
-    if (ext == ".ele" || ext == ".md") continue;  // .ele files are read with their .node
-    ++files;
-    const CaseResult r = readIsolated(entry.path().string(), kAlarmSeconds);
-    EXPECT_TRUE(r.ok) << entry.path().filename() << ": " << r.detail;
-    // Each was a crash, hang or broken promise once; now each is refused with a message.
-    EXPECT_EQ(r.outcome, kRefused) << entry.path().filename() << ": " << r.detail;
+  if (std::filesystem::exists(dir)) {
+    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+      const std::string ext = entry.path().extension().string();
+      if (ext == ".ele" || ext == ".md") continue;  // .ele files are read with their .node
+      ++files;
+      const CaseResult r = readIsolated(entry.path().string(), kAlarmSeconds);
+      EXPECT_TRUE(r.ok) << entry.path().filename() << ": " << r.detail;
+      EXPECT_EQ(r.outcome, kRefused) << entry.path().filename() << ": " << r.detail;
+    }
   }
-  EXPECT_GT(files, 0) << "no regression inputs in " << dir;
+  if (files == 0) GTEST_SKIP() << "no fuzz regression inputs in " << dir;
 }
