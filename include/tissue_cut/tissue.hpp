@@ -26,7 +26,8 @@ MassSpringParams massSpringParams(const Config& config);
 class Tissue {
  public:
   /// Builds the model on `mesh` (#V by 3 rest positions [m], #T by 4 tets).
-  /// Throws ConfigError for an invalid config, std::invalid_argument for an unusable mesh.
+  /// Throws ConfigError for an invalid config, std::invalid_argument for an unusable mesh
+  /// (empty, non-finite, or failing TetMesh::validate(), e.g. a pinched or overlapping boundary).
   Tissue(const Config& config, const MeshData& mesh);
   ~Tissue();
   Tissue(const Tissue&) = delete;

@@ -46,6 +46,11 @@ Tissue::Tissue(const Config& config, const MeshData& mesh) : config_(config), in
   if (!initial_.V.allFinite())
     throw std::invalid_argument("the tissue mesh has non-finite vertices");
   reset();
+  // A file can hold tets that each look fine but do not form a closed, consistently oriented
+  // complex (a corrupted index makes two tets overlap); cutting it would go wrong later.
+  const std::string invalid = mesh_.validate();
+  if (!invalid.empty())
+    throw std::invalid_argument("the tissue mesh is not a valid tetrahedral mesh: " + invalid);
 }
 
 Tissue::~Tissue() = default;

@@ -336,3 +336,32 @@ TEST(SplitTable, NeighboursSplitSharedFacesAlike) {
     EXPECT_NEAR(mesh.restVolume(), volume, 1e-12 * volume);
   }
 }
+
+TEST(SplitTable, TinyTetFarFromTheOriginGetsNoFlatConeFromRoundOff) {
+  // A 0.3 um tet (cut tets get this small after many cuts) 6 cm from the origin, with points on
+  // two edges at one corner. The cone from corner 0 holds two tets whose apex lies on an edge of
+  // their base: flat, but round-off left them 1.7e-11 of the tet's volume, above the old
+  // threshold (1e-12), so they were taken and overlapped their neighbours (found by the property
+  // test: "face would be shared by 3 tets").
+  Lab lab;
+  for (const Vec3& p : {Vec3(0.056582255330662287, -0.021171232973068096, 0.020226731034091189),
+                        Vec3(0.056582577286763663, -0.021170985740158282, 0.020226518919043718),
+                        Vec3(0.056582671732999384, -0.021171006658209725, 0.02022646993038096),
+                        Vec3(0.056582388821946536, -0.02117090467230168, 0.020226399098401997),
+                        Vec3(0.056582284936348912, -0.021171216882364043, 0.020226712469943172),
+                        Vec3(0.056582534789491989, -0.021170957291782321, 0.020226435644058328)})
+    lab.add(p);
+  lab.cut.corner = {0, 1, 2, 3};
+  lab.cut.edge_point[tetEdgeIndex(0, 2)] = 4;
+  lab.cut.edge_point[tetEdgeIndex(2, 3)] = 5;
+  ASSERT_GT(lab.volume(), 0.0);
+  const TetSplit split = subdivideTet(lab.cut, lab.at(), lab.at(), -1);
+  ASSERT_EQ(split.kind, SplitKind::kCone);
+  double sum = 0.0;
+  for (const TetVerts& t : split.tets) {
+    const double v = signedVolume(lab.pos[t[0]], lab.pos[t[1]], lab.pos[t[2]], lab.pos[t[3]]);
+    EXPECT_GT(v, 1e-6 * lab.volume()) << t[0] << " " << t[1] << " " << t[2] << " " << t[3];
+    sum += v;
+  }
+  EXPECT_NEAR(sum, lab.volume(), 1e-9 * lab.volume());
+}
