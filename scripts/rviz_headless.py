@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """RViz without a screen: a private Xvfb display, a screenshot, and how much of it is tissue.
 
 Used by scripts/demo (headless) and the screenshot rostest. As a command:

@@ -413,6 +413,10 @@ bool TissueNode::saveMeshService(SaveMesh::Request& req, SaveMesh::Response& res
     std::lock_guard<std::mutex> lock(model_mutex_);
     data = tissue_->exportMesh();
   }
+  // The file is the cut material: rest positions as its points, so that load_mesh reads it back
+  // as a valid model (the deformed shape may hold tets inverted by the simulation).
+  data.V = data.rest;
+  data.rest.resize(0, 3);
   try {
     writeMesh(req.path, data);
   } catch (const std::exception& e) {

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Screenshot test: RViz with the package's config, under a private Xvfb, shows the tissue after a
 cut (the skin colour covers a sizeable part of the picture, the cut walls show)."""
 import csv
