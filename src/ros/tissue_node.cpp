@@ -54,6 +54,33 @@ double seconds(std::chrono::steady_clock::duration d) {
   return std::chrono::duration<double>(d).count();
 }
 
+// The model's live settings as dynamic_reconfigure shows them (the view settings are apart), and
+// back.
+void putModelValues(const Config& c, TissueConfig* r) {
+  r->collapse_enabled = c.collapse.enabled;
+  r->collapse_tau = c.collapse.tau;
+  r->collapse_budget_us = c.collapse.budget_us;
+  r->blade_length = c.cut.blade_length;
+  r->physics_enabled = c.physics.enabled;
+  r->young_modulus = c.physics.young_modulus;
+  r->damping = c.physics.damping;
+  r->gravity_x = c.physics.gravity.x();
+  r->gravity_y = c.physics.gravity.y();
+  r->gravity_z = c.physics.gravity.z();
+}
+
+Config withReconfigureValues(Config c, const TissueConfig& r) {
+  c.collapse.enabled = r.collapse_enabled;
+  c.collapse.tau = r.collapse_tau;
+  c.collapse.budget_us = r.collapse_budget_us;
+  c.cut.blade_length = r.blade_length;
+  c.physics.enabled = r.physics_enabled;
+  c.physics.young_modulus = r.young_modulus;
+  c.physics.damping = r.damping;
+  c.physics.gravity = Vec3(r.gravity_x, r.gravity_y, r.gravity_z);
+  return c;
+}
+
 }  // namespace
 
 Config configFromParameters(const ros::NodeHandle& pnh) {
@@ -118,16 +145,7 @@ TissueNode::TissueNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   reconfigure_server_ =
       std::make_unique<dynamic_reconfigure::Server<TissueConfig>>(reconfigure_mutex_, pnh_);
   TissueConfig initial;
-  initial.collapse_enabled = config_.collapse.enabled;
-  initial.collapse_tau = config_.collapse.tau;
-  initial.collapse_budget_us = config_.collapse.budget_us;
-  initial.blade_length = config_.cut.blade_length;
-  initial.physics_enabled = config_.physics.enabled;
-  initial.young_modulus = config_.physics.young_modulus;
-  initial.damping = config_.physics.damping;
-  initial.gravity_x = config_.physics.gravity.x();
-  initial.gravity_y = config_.physics.gravity.y();
-  initial.gravity_z = config_.physics.gravity.z();
+  putModelValues(config_, &initial);
   initial.color_by_quality = settings_.style.color_by_quality;
   initial.show_collapse_queue = settings_.style.show_collapse_queue;
   reconfigure_server_->updateConfig(initial);
@@ -441,28 +459,11 @@ bool TissueNode::validateService(std_srvs::Trigger::Request&, std_srvs::Trigger:
 
 void TissueNode::reconfigure(TissueConfig& cfg, uint32_t) {
   std::lock_guard<std::mutex> lock(model_mutex_);
-  Config c = config_;
-  c.collapse.enabled = cfg.collapse_enabled;
-  c.collapse.tau = cfg.collapse_tau;
-  c.collapse.budget_us = cfg.collapse_budget_us;
-  c.cut.blade_length = cfg.blade_length;
-  c.physics.enabled = cfg.physics_enabled;
-  c.physics.young_modulus = cfg.young_modulus;
-  c.physics.damping = cfg.damping;
-  c.physics.gravity = Vec3(cfg.gravity_x, cfg.gravity_y, cfg.gravity_z);
+  const Config c = withReconfigureValues(config_, cfg);
   const std::string bad = tissue_->reconfigure(c);
   if (!bad.empty()) {
     ROS_ERROR("tissue: reconfigure refused: %s; the settings are kept", bad.c_str());
-    cfg.collapse_enabled = config_.collapse.enabled;
-    cfg.collapse_tau = config_.collapse.tau;
-    cfg.collapse_budget_us = config_.collapse.budget_us;
-    cfg.blade_length = config_.cut.blade_length;
-    cfg.physics_enabled = config_.physics.enabled;
-    cfg.young_modulus = config_.physics.young_modulus;
-    cfg.damping = config_.physics.damping;
-    cfg.gravity_x = config_.physics.gravity.x();
-    cfg.gravity_y = config_.physics.gravity.y();
-    cfg.gravity_z = config_.physics.gravity.z();
+    putModelValues(config_, &cfg);
   } else {
     config_ = c;
     std::lock_guard<std::mutex> input_lock(input_mutex_);

@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 
 #include "node_test_util.hpp"
 #include "tissue_cut/LoadMesh.h"

@@ -11,30 +11,18 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "replay_runner.hpp"
 #include "tissue_cut/cut/scalpel_path.hpp"
 
 using namespace tissue_cut;
+using tissue_cut::test::Outcome;
+using tissue_cut::test::replay;
+using tissue_cut::test::run;
 
 namespace {
 
 const std::string kSource = TISSUE_CUT_SOURCE_DIR;
 const std::string kIncision = kSource + "/meshes/paths/incision_block.csv";
-
-struct Outcome {
-  int status;
-  std::string output;
-};
-
-Outcome replay(const std::string& args) {
-  Outcome r{-1, ""};
-  FILE* pipe = popen((std::string(TISSUE_CUT_REPLAY) + " " + args + " 2>&1").c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), buf.size(), pipe)) r.output += buf.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
 
 nlohmann::json stats(const std::string& file) {
   std::ifstream in(file);

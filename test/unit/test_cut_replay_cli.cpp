@@ -8,32 +8,19 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "replay_runner.hpp"
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 
 using namespace tissue_cut;
+using tissue_cut::test::Outcome;
+using tissue_cut::test::replay;
+using tissue_cut::test::run;
 
 namespace {
 
 const std::string kSource = TISSUE_CUT_SOURCE_DIR;
 
-struct Outcome {
-  int status;
-  std::string output;  // stdout and stderr
-};
-
-Outcome run(const std::string& command) {
-  Outcome r{-1, ""};
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), buf.size(), pipe)) r.output += buf.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
-
-Outcome replay(const std::string& args) { return run(std::string(TISSUE_CUT_REPLAY) + " " + args); }
 
 double volumeOf(const MeshData& m) {
   TetMesh mesh(m.V, m.T);
