@@ -33,6 +33,10 @@ struct CutterOptions {
   double max_jump = 0.02;
   /// Vertices closer to the swept surface than this fraction of the mean edge length lie on it.
   double snap = 0.08;
+  /// Vertices of an earlier cut whose wall runs along the blade's sweep (within 30 degrees) lie on
+  /// it within this fraction of the mean edge: a blade coming back along a wound that the tissue
+  /// has moved since follows the wound instead of cutting slivers off its wall.
+  double wound_snap = 0.35;
 };
 
 /// The paper's counts and the cutter's own.
@@ -103,7 +107,10 @@ class Cutter {
   bool conforming(const std::vector<Coarse>& around, const std::vector<int>& verts) const;
   void registerEdgePoint(int a, int b, double s, ChangeRecord* change);
   void registerFacePoint(const std::array<int, 3>& face, const Vec3& weights, ChangeRecord* change);
-  void trySnap(int v, const std::array<Triangle, 2>& tris);
+  void trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& normal);
+  bool woundFacing(int v, const Vec3& normal) const;
+  /// A crossing `distance` from v stands for v: v lies on a cut (within the wound's band).
+  bool nearWound(int v, double distance, const Vec3& normal) const;
   void subdivide(int pid, ChangeRecord* change);
   void finalize(int pid, ChangeRecord* change, std::vector<int>* touched);
   void finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change);
@@ -119,7 +126,7 @@ class Cutter {
 
   TetMesh* mesh_;
   CutterOptions options_;
-  double snap_distance_ = 0.0, mean_edge_ = 0.0;
+  double snap_distance_ = 0.0, wound_snap_distance_ = 0.0, mean_edge_ = 0.0;
   TetGrid grid_;
   std::optional<BladeSegment> previous_;
   Vec3 last_motion_ = Vec3::Zero();  // the blade's last move, to push a stroke's end ahead
@@ -130,6 +137,10 @@ class Cutter {
   int next_pending_ = 0;
   std::vector<int> pending_of_;          // per tet slot
   std::unordered_set<int> on_cut_;       // vertices lying on the cut surface (snapped)
+  std::unordered_set<int> wound_;        // points the cutter made on cut surfaces, and copies
+  bool onWound(int v) const;             // snapped onto a cut, or made by one
+  /// A crossing at x of the edge or face `verts` lies on an earlier cut in the tets around it.
+  bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
   std::set<std::array<int, 3>> marked_;  // cut faces not opened yet (sorted ids)
   void mark(const std::array<int, 3>& face);

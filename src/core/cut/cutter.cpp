@@ -19,6 +19,13 @@ std::array<int, 3> sortedFace(int a, int b, int c) {
   return k;
 }
 
+double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (x - (a + t * d)).norm();
+}
+
 int localIndex(const TetVerts& t, int v) {
   for (int i = 0; i < 4; ++i)
     if (t[i] == v) return i;
@@ -44,6 +51,7 @@ void Cutter::reset() {
   swept_valid_ = false;
   pending_.clear();
   on_cut_.clear();
+  wound_.clear();
   marked_.clear();
   marked_at_.clear();
   previous_.reset();
@@ -55,6 +63,7 @@ void Cutter::reset() {
   for (const auto& [a, b] : edges) sum += (mesh_->rest(a) - mesh_->rest(b)).norm();
   mean_edge_ = edges.empty() ? 1.0 : sum / edges.size();
   snap_distance_ = options_.snap * mean_edge_;
+  wound_snap_distance_ = std::max(options_.snap, options_.wound_snap) * mean_edge_;
   grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
 }
 
@@ -101,6 +110,7 @@ void Cutter::follow(const ChangeRecord& change) {
   for (int t : change.removed_tets) pending_of_[t] = -1;
   for (const auto& [gone, survivor] : change.merged_vertices) {
     if (on_cut_.erase(gone)) on_cut_.insert(survivor);
+    if (wound_.erase(gone)) wound_.insert(survivor);
   }
   refreshGrid(change);
 }
@@ -231,6 +241,7 @@ void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
   // A point nearer a corner than this would only make a needle: keep it a little inside.
   s = std::clamp(s, 0.05, 0.95);
   const int v = mesh_->addVertex({{a, 1.0 - s}, {b, s}}, change);
+  wound_.insert(v);
   for (const Coarse& c : around) {
     const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
     Pending& p = pending_[pid];
@@ -278,6 +289,7 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
   Vec3 w = weights.cwiseMax(0.05);
   w /= w.sum();
   const int v = mesh_->addVertex({{face[0], w[0]}, {face[1], w[1]}, {face[2], w[2]}}, change);
+  wound_.insert(v);
   for (const Coarse& c : around) {
     const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
     Pending& p = pending_[pid];
@@ -288,12 +300,19 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
   }
 }
 
-void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris) {
+void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& normal) {
   if (on_cut_.count(v)) return;
   const Vec3& x = mesh_->current(v);
   if (!pointNearTriangle(x, tris[0], snap_distance_) &&
-      !pointNearTriangle(x, tris[1], snap_distance_))
-    return;
+      !pointNearTriangle(x, tris[1], snap_distance_)) {
+    // A point of an earlier cut whose wall runs along this sweep is taken as lying on it within
+    // a wider band: the blade is moving inside that wound (which the tissue has moved since).
+    if (!onWound(v) ||
+        (!pointNearTriangle(x, tris[0], wound_snap_distance_) &&
+         !pointNearTriangle(x, tris[1], wound_snap_distance_)) ||
+        !woundFacing(v, normal))
+      return;
+  }
   // A vertex next to a cut point already made stays off the cut: the point took its place.
   for (int t : mesh_->vertexTets(v)) {
     const int pid = pending_of_[t];
@@ -590,6 +609,7 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
       const int copy = mesh_->addVertex({{v, 1.0}}, change);
       ++counts_.separated_vertices;
       if (on_cut_.count(v)) on_cut_.insert(copy);
+      if (wound_.count(v)) wound_.insert(copy);
       std::set<int> in_group(tets.begin(), tets.end());
       // Cut faces between two tets of this group move to the copy; the others open.
       for (int t : tets) {
@@ -651,8 +671,11 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   std::vector<TetVerts> corners;
   corners.reserve(near.size());
   for (const Coarse& c : near) corners.push_back(cornersOf(c));
+  Vec3 normal = (tris[0][1] - tris[0][0]).cross(tris[0][2] - tris[0][0]);
+  if (normal.norm() <= tiny) normal = (tris[1][1] - tris[1][0]).cross(tris[1][2] - tris[1][0]);
+  normal.normalize();
   for (const TetVerts& tv : corners)
-    for (int v : tv) trySnap(v, tris);
+    for (int v : tv) trySnap(v, tris, normal);
   // The edges in increasing order, each once (sorted, as a std::set would give them).
   std::vector<std::pair<int, int>>& edges = edge_scratch_;
   edges.clear();
@@ -692,7 +715,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       Vec3 bary;
       const Vec3 &pa = mesh_->current(a), &pb = mesh_->current(b);
       if (segmentCrossesTriangle(pa, pb, tri, 1e-9, &s, &bary)) {
-        if (!nearFront(pa + s * (pb - pa))) registerEdgePoint(a, b, s, change);
+        const Vec3 x = pa + s * (pb - pa);
+        if (!nearFront(x) && !woundAround(x, {a, b}, normal)) registerEdgePoint(a, b, s, change);
         break;
       }
     }
@@ -708,6 +732,10 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
   // of every tet still describe one surface ending at the moved front.
   const Vec3 shift = inward.norm() > 0 ? Vec3(frontShift() * inward.normalized()) : Vec3::Zero();
   for (auto seg : front_in) {
+    // The cut surface's normal here (zero when the blade has not moved: no wound band then).
+    Vec3 normal = (seg[1] - seg[0]).cross(inward);
+    if (normal.norm() > 1e-12 * mean_edge_ * mean_edge_) normal.normalize();
+    else normal = Vec3::Zero();
     seg[0] += shift;
     seg[1] += shift;
     Vec3 lo = seg[0].cwiseMin(seg[1]), hi = seg[0].cwiseMax(seg[1]);
@@ -728,10 +756,57 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
       const Triangle tri{mesh_->current(face[0]), mesh_->current(face[1]), mesh_->current(face[2])};
       double s;
       Vec3 bary;
-      if (segmentCrossesTriangle(seg[0], seg[1], tri, 1e-9, &s, &bary))
+      if (segmentCrossesTriangle(seg[0], seg[1], tri, 1e-9, &s, &bary) &&
+          !woundAround(seg[0] + s * (seg[1] - seg[0]), {face[0], face[1], face[2]}, normal))
         registerFacePoint(face, bary, change);
     }
   }
+}
+
+bool Cutter::onWound(int v) const { return on_cut_.count(v) > 0 || wound_.count(v) > 0; }
+
+bool Cutter::woundFacing(int v, const Vec3& normal) const {
+  // True when a boundary face at v lies within 30 degrees of the plane with this normal.
+  for (int t : mesh_->vertexTets(v)) {
+    const TetVerts& tv = mesh_->tet(t);
+    for (int f = 0; f < 4; ++f) {
+      if (tv[f] == v || mesh_->neighbor(t, f) >= 0) continue;
+      const Vec3& a = mesh_->current(tv[kTetFace[f][0]]);
+      const Vec3 n = (mesh_->current(tv[kTetFace[f][1]]) - a)
+                         .cross(mesh_->current(tv[kTetFace[f][2]]) - a);
+      const double len = n.norm();
+      if (len > 0 && std::abs(n.dot(normal)) > 0.866 * len) return true;
+    }
+  }
+  return false;
+}
+
+bool Cutter::woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const {
+  // A crossing of an edge or face near one of its vertices, or (a face) near one of its edges,
+  // that lies on an earlier cut stands for that vertex or edge: the blade follows that cut there
+  // (coming back along its own wound, which the tissue may have moved since, or a tip at the
+  // depth of snapped vertices), and a point beside it would only cut a sliver off along the wound.
+  // Near: the snap distance, or the wound's band where its wall runs along this cut (woundFacing).
+  // Only the edge's or face's own vertices count: a cut going on next to the wall it has just
+  // opened behind the blade must not stop there.
+  const int n = static_cast<int>(verts.size());
+  for (int k = 0; k < n; ++k) {
+    const int u = verts[k];
+    if (!onWound(u)) continue;
+    const Vec3& p = mesh_->current(u);
+    if (nearWound(u, (x - p).norm(), normal)) return true;
+    if (n < 3) continue;
+    const int w = verts[(k + 1) % n];
+    if (onWound(w) && nearWound(u, distanceToSegment(x, p, mesh_->current(w)), normal))
+      return true;
+  }
+  return false;
+}
+
+bool Cutter::nearWound(int v, double distance, const Vec3& normal) const {
+  if (!onWound(v)) return false;
+  if (distance < snap_distance_) return true;
+  return distance < wound_snap_distance_ && normal.norm() > 0 && woundFacing(v, normal);
 }
 
 std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
