@@ -50,7 +50,8 @@ nlohmann::json Statistics::toJson() const {
       {"histogram", std::vector<int>(quality.histogram.begin(), quality.histogram.end())}};
   j["cut"] = {{"cut_tetrahedra", cut.cut_tetrahedra},
               {"created_tetrahedra", cut.created_tetrahedra},
-              {"time_ms", cut.time_ms}};
+              {"time_ms", cut.time_ms},
+              {"refused", cut.refused}};
   j["collapse"] = {{"collapsed_edges", collapse.collapsed_edges},
                    {"removed_tetrahedra", collapse.removed_tetrahedra},
                    {"pending", collapse.pending},

@@ -147,6 +147,7 @@ Statistics Tissue::statistics() const {
   s.cut.cut_tetrahedra = cutter_->counts().cut_tetrahedra;
   s.cut.created_tetrahedra = cutter_->counts().created_tetrahedra;
   s.cut.time_ms = cutter_->counts().time_ms;
+  s.cut.refused = cutter_->counts().refused;
   const CollapseCounts& c = collapse_->counts();
   s.collapse.collapsed_edges = c.collapsed_edges;
   s.collapse.removed_tetrahedra = c.removed_tetrahedra;

@@ -144,8 +144,8 @@ void printSummary(const tissue_cut::Statistics& s) {
   std::printf("volume      rest %.9g m^3, current %.9g m^3\n", s.volume_rest, s.volume_current);
   std::printf("quality     min %.6f, mean %.6f (rest mesh, Q = 3 r_in / R_circ)\n", s.quality.min,
               s.quality.mean);
-  std::printf("cut         %d cut tets, %d created tets, %.3f ms\n", s.cut.cut_tetrahedra,
-              s.cut.created_tetrahedra, s.cut.time_ms);
+  std::printf("cut         %d cut tets, %d created tets, %.3f ms, %d replacements refused\n",
+              s.cut.cut_tetrahedra, s.cut.created_tetrahedra, s.cut.time_ms, s.cut.refused);
   std::printf(
       "collapse    %d edges, %d tets removed, %d pending, %.3f ms; refused: link %d, inversion %d, "
       "quality %d, boundary %d\n",

@@ -46,6 +46,7 @@ struct CutCounts {
   double time_ms = 0.0;          ///< time in cutting (t.Repl)
   int separated_vertices = 0;    ///< vertex copies made to open the cut
   int lifts = 0;                 ///< jumps treated as the blade lifted
+  int refused = 0;               ///< replacements TetMesh refused (the cut left closed there)
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
 };
 
@@ -120,7 +121,7 @@ class Cutter {
   int addSteiner(const Pending& p, ChangeRecord* change);
   void dropUnusedSteiner(int* steiner, ChangeRecord* change);
   void setPieces(int pid, const std::vector<int>& pieces);
-  void replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
+  bool replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids);
   void refreshGrid(const ChangeRecord& change);
 
@@ -147,6 +148,7 @@ class Cutter {
   bool unmark(const std::array<int, 3>& face);
   std::unordered_map<int, int> marked_at_;  // vertex -> number of marked faces holding it
   CutCounts counts_;
+  std::string refusal_;  // the first refused replacement of this tick
   // Scratch buffers of one tick, kept for their capacity.
   std::vector<int> near_scratch_;
   std::vector<int> swept_near_;  // this tick's sweep search, while no tet has been replaced

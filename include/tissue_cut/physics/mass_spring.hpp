@@ -76,6 +76,10 @@ class MassSpring {
   TetMesh* mesh_;
   MassSpringParams params_;
   std::vector<double> mass_;
+  std::vector<double> inertia_;  // mass_, floored (see step())
+  static constexpr double kMinInertia = 1e-3;
+  static constexpr double kMinStiffness = 1e-3, kMaxStiffness = 20.0;  // see updateSpring()
+  double reference_length_ = 0.0;  // mean rest edge of the mesh at construction [m]
   std::vector<unsigned char> fixed_;
   std::vector<Spring> springs_;
   std::unordered_map<long long, int> spring_of_;  // edge key -> index

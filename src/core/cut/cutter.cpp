@@ -92,16 +92,26 @@ bool Cutter::isPendingPiece(int t) const {
 
 void Cutter::refreshGrid(const ChangeRecord& change) { grid_.update(*mesh_, change); }
 
-void Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
+bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                      ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids) {
   ChangeRecord local;
-  auto added = mesh_->replaceTets(remove, add, &local, from);
+  std::vector<int> added;
+  try {
+    added = mesh_->replaceTets(remove, add, &local, from);
+  } catch (const std::logic_error& e) {
+    // TetMesh checks a change whole before making it: refused, the mesh is as it was. The caller
+    // leaves the cut closed there; the tick reports it and the model goes on.
+    ++counts_.refused;
+    if (refusal_.empty()) refusal_ = e.what();
+    return false;
+  }
   if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
     pending_of_.resize(mesh_->tetSlots(), -1);
   for (int t : remove) pending_of_[t] = -1;
   refreshGrid(local);
   change->append(local);
   if (ids) *ids = std::move(added);
+  return true;
 }
 
 void Cutter::follow(const ChangeRecord& change) {
@@ -363,8 +373,7 @@ void Cutter::subdivide(int pid, ChangeRecord* change) {
   if (split.kind == SplitKind::kUntouched) return;
   std::vector<int> ids;
   const std::vector<int> old = p.pieces;
-  replace(old, split.tets, change, nullptr, &ids);
-  setPieces(pid, ids);
+  if (replace(old, split.tets, change, nullptr, &ids)) setPieces(pid, ids);
   dropUnusedSteiner(&p.steiner, change);
 }
 
@@ -387,22 +396,29 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
     if (p.steiner < 0) p.steiner = addSteiner(p, change);
     split = splitTet(p.cut, rest, cur, p.steiner);
   }
+  if (split.kind != SplitKind::kUntouched && split.kind != SplitKind::kAlongFace) {
+    std::vector<int> ids;
+    const std::vector<int> from(split.tets.size(), -1);
+    if (!replace(p.pieces, split.tets, change, &from, &ids)) {
+      // Refused: the tet keeps its temporary pieces (they fill it and conform to every point),
+      // and the cut stays closed inside it.
+      for (int t : p.pieces) pending_of_[t] = -1;
+      dropUnusedSteiner(&p.steiner, change);
+      pending_.erase(pid);
+      return;
+    }
+    dropUnusedSteiner(&p.steiner, change);
+    ++counts_.cut_tetrahedra;
+    counts_.created_tetrahedra += static_cast<int>(ids.size());
+    for (const TetVerts& t : split.tets) touched->insert(touched->end(), t.begin(), t.end());
+  } else {
+    for (int t : p.pieces) pending_of_[t] = -1;
+  }
   ++counts_.by_kind[static_cast<int>(split.kind)];
   if (on_split) on_split(p.cut, split);
   for (const auto& f : split.cut_faces) {
     mark(sortedFace(f[0], f[1], f[2]));
     touched->insert(touched->end(), f.begin(), f.end());
-  }
-  if (split.kind == SplitKind::kUntouched || split.kind == SplitKind::kAlongFace) {
-    for (int t : p.pieces) pending_of_[t] = -1;
-  } else {
-    std::vector<int> ids;
-    const std::vector<int> from(split.tets.size(), -1);
-    replace(p.pieces, split.tets, change, &from, &ids);
-    dropUnusedSteiner(&p.steiner, change);
-    ++counts_.cut_tetrahedra;
-    counts_.created_tetrahedra += static_cast<int>(ids.size());
-    for (const TetVerts& t : split.tets) touched->insert(touched->end(), t.begin(), t.end());
   }
   if (p.steiner >= 0 && mesh_->vertexAlive(p.steiner) && mesh_->vertexTets(p.steiner).empty()) {
     ChangeRecord local;
@@ -606,25 +622,19 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
     for (std::size_t k = 0; k < groups.size(); ++k) {
       if (k == keep) continue;
       const std::vector<int>& tets = groups[k];
-      const int copy = mesh_->addVertex({{v, 1.0}}, change);
-      ++counts_.separated_vertices;
-      if (on_cut_.count(v)) on_cut_.insert(copy);
-      if (wound_.count(v)) wound_.insert(copy);
+      ChangeRecord local;
+      const int copy = mesh_->addVertex({{v, 1.0}}, &local);
       std::set<int> in_group(tets.begin(), tets.end());
       // Cut faces between two tets of this group move to the copy; the others open.
+      std::vector<std::pair<std::array<int, 3>, bool>> marks;  // face, moves to the copy
       for (int t : tets) {
         const TetVerts& tv = mesh_->tet(t);
         for (int f = 0; f < 4; ++f) {
           if (tv[f] == v) continue;
-          auto key = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
-          if (!unmark(key)) continue;
+          const auto key = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
+          if (!marked_.count(key)) continue;
           const int u = mesh_->neighbor(t, f);
-          if (u >= 0 && in_group.count(u)) {
-            for (int& x : key)
-              if (x == v) x = copy;
-            std::sort(key.begin(), key.end());
-            mark(key);
-          }
+          marks.emplace_back(key, u >= 0 && in_group.count(u) > 0);
         }
       }
       std::vector<TetVerts> renamed;
@@ -636,7 +646,26 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
         if (pending_of_[t] >= 0) pendings.insert(pending_of_[t]);
       }
       std::vector<int> ids;
-      replace(tets, renamed, change, &tets, &ids);
+      if (!replace(tets, renamed, &local, &tets, &ids)) {
+        // Refused: no copy; the faces that would have opened here stay closed for good.
+        ChangeRecord gone;  // appended, so that the copy never existed
+        mesh_->removeVertex(copy, &gone);
+        local.append(gone);
+        change->append(local);
+        for (const auto& [key, moves] : marks) unmark(key);
+        continue;
+      }
+      change->append(local);
+      ++counts_.separated_vertices;
+      if (on_cut_.count(v)) on_cut_.insert(copy);
+      if (wound_.count(v)) wound_.insert(copy);
+      for (auto [key, moves] : marks) {
+        if (!unmark(key) || !moves) continue;
+        for (int& x : key)
+          if (x == v) x = copy;
+        std::sort(key.begin(), key.end());
+        mark(key);
+      }
       for (int pid : pendings) {
         Pending& p = pending_[pid];
         renameIn(&p.cut, v, copy);
@@ -812,6 +841,7 @@ bool Cutter::nearWound(int v, double distance, const Vec3& normal) const {
 std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
   const auto start = std::chrono::steady_clock::now();
   std::string warning;
+  refusal_.clear();
   swept_valid_ = false;
   // Whether the tissue drifted past the grid's margin is checked on one tick in 64 only (a scan
   // of all vertices): between checks the margin (one mean edge) absorbs the motion.
@@ -857,6 +887,9 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   }
   previous_ = blade;
   finalizeLeft(blade, change);
+  if (!refusal_.empty())
+    warning += std::string(warning.empty() ? "" : "; ") +
+               "a replacement was refused and the cut left closed there (" + refusal_ + ")";
   counts_.time_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return warning;

@@ -55,7 +55,11 @@ MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
     if (mesh_->tetAlive(t)) tet_copy_[t] = mesh_->tet(t);
   for (int v = 0; v < mesh_->vertexSlots(); ++v)
     if (mesh_->vertexAlive(v)) updateMass(v);
-  for (const auto& [a, b] : mesh_->edges()) updateSpring(a, b);
+  const auto edges = mesh_->edges();
+  double sum = 0.0;
+  for (const auto& [a, b] : edges) sum += (mesh_->rest(a) - mesh_->rest(b)).norm();
+  reference_length_ = edges.empty() ? 0.0 : sum / edges.size();
+  for (const auto& [a, b] : edges) updateSpring(a, b);
   if (params_.fixed_band >= 0) {
     double side = params_.fixed_max_side ? -1e300 : 1e300;
     for (int v = 0; v < mesh_->vertexSlots(); ++v) {
@@ -119,9 +123,14 @@ void MassSpring::updateSpring(int a, int b) {
   }
   const double length = (mesh_->rest(a) - mesh_->rest(b)).norm();
   // Van Gelder: k = E * (volume of the tets on the edge) / length^2, so that stiffness follows
-  // the material, not the mesh.
-  const Spring s{std::min(a, b), std::max(a, b), length,
-                 params_.young_modulus * volume / (length * length)};
+  // the material, not the mesh. Kept within [kMinStiffness, kMaxStiffness] x E x the loaded
+  // mesh's mean edge (a regular mesh's springs are about 0.6 of it): repeated cuts can leave
+  // nanometre edges (k 1e4 N/m) next to micrometre tets hanging on by 1e-8 N/m, and such rows
+  // leave the implicit solve's CG unconverged (speeds of 50-130 m/s, rolled back tick after tick).
+  const double scale = params_.young_modulus * reference_length_;
+  double k = params_.young_modulus * volume / (length * length);
+  if (scale > 0) k = std::clamp(k, kMinStiffness * scale, kMaxStiffness * scale);
+  const Spring s{std::min(a, b), std::max(a, b), length, k};
   if (it == spring_of_.end()) {
     spring_of_[key] = static_cast<int>(springs_.size());
     springs_.push_back(s);
@@ -200,7 +209,7 @@ double MassSpring::multiply(const std::vector<Vec3>& p, std::vector<Vec3>* out_v
   const int n = mesh_->vertexSlots();
   Vec3* out = out_vec->data();
   const Vec3* pv = p.data();
-  for (int v = 0; v < n; ++v) out[v] = (mass_damping_ * mass_[v]) * pv[v];
+  for (int v = 0; v < n; ++v) out[v] = (mass_damping_ * inertia_[v]) * pv[v];
   // Springs are kept sorted by their first end (mostly: new ones go last), so the first end's sum
   // stays in registers along a run and only the second end is scattered; that breaks the chain
   // of dependent loads and stores through out[a].
@@ -245,7 +254,7 @@ bool MassSpring::stepImplicit(double dt) {
     const bool alive = mesh_->vertexAlive(v);
     b_[v] = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
                   : Vec3::Zero();
-    const double md = mass_damping_ * mass_[v];
+    const double md = mass_damping_ * inertia_[v];
     inv_diag_[v] = {md, 0.0, 0.0, md, 0.0, md};
   }
   const Vec3* x = mesh_->currentPositions().data();
@@ -359,11 +368,11 @@ void MassSpring::stepSemiImplicit(double dt) {
   const std::vector<Vec3>& f = b_;
   for (int v = 0; v < mesh_->vertexSlots(); ++v) {
     if (!mesh_->vertexAlive(v)) continue;
-    if (fixed_[v] || !(mass_[v] > 0)) {
+    if (fixed_[v] || !(inertia_[v] > 0)) {
       mesh_->velocity(v).setZero();
       continue;
     }
-    mesh_->velocity(v) += dt * f[v] / mass_[v];
+    mesh_->velocity(v) += dt * f[v] / inertia_[v];
     mesh_->current(v) += dt * mesh_->velocity(v);
   }
 }
@@ -381,6 +390,20 @@ std::string MassSpring::step(double dt) {
   ++steps_;
   resize();
   x0_ = mesh_->currentPositions();  // capacity kept: no allocation once grown
+  // Inertia: the mass, but at least kMinInertia of the mean vertex mass. Repeated cuts leave
+  // micrometre tets whose corners weigh 1e-12 of the rest while their springs stay stiff; such a
+  // row makes the system too ill-conditioned for CG, which then returns speeds of 50-130 m/s.
+  // The floor adds a negligible inertia (the mass statistics and gravity keep the true mass).
+  {
+    const int n = mesh_->vertexSlots();
+    inertia_.resize(n);
+    double total = 0.0;
+    int alive = 0;
+    for (int v = 0; v < n; ++v)
+      if (mesh_->vertexAlive(v)) total += mass_[v], ++alive;
+    const double floor = alive > 0 ? kMinInertia * total / alive : 0.0;
+    for (int v = 0; v < n; ++v) inertia_[v] = mesh_->vertexAlive(v) ? std::max(mass_[v], floor) : 0.0;
+  }
   if (params_.implicit) {
     stepImplicit(dt);
   } else {
