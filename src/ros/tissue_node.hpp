@@ -84,6 +84,9 @@ class TissueNode {
   double blade_length_ = 0.03;  // guarded by input_mutex_
 
   std::mutex model_mutex_;  // the Tissue, config_, snapshot-taking; never held by two ticks
+  std::atomic<int> model_waiting_{0};  // threads other than the tick's waiting for model_mutex_
+  /// model_mutex_ for anyone but the tick thread, which lets such waiters go first.
+  std::unique_lock<std::mutex> lockModel();
   std::unique_ptr<Tissue> tissue_;
   std::unique_ptr<SkinClassifier> skin_;  // guarded by marker_mutex_
   std::mutex marker_mutex_;
