@@ -68,6 +68,10 @@ void Cutter::reset() {
 }
 
 void Cutter::mark(const std::array<int, 3>& face) {
+  // Only a face between two tets can open; a cut along a boundary face (a blade following its
+  // wound) has nothing to open there, and a mark would keep its vertices busy for good.
+  const int t1 = mesh_->faceTet(face[0], face[1], face[2]);
+  if (t1 < 0 || mesh_->faceTet(face[0], face[1], face[2], t1) < 0) return;
   if (marked_.insert(face).second)
     for (int v : face) ++marked_at_[v];
 }
