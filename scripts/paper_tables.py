@@ -107,17 +107,18 @@ def main():
             coll['region']['tetrahedra'] / max(cut, 1)))
     print('paper: mean quality 0.28 without collapse, 0.46 with; 2.4-2.8 tets per cut tet')
     print()
-    print('Collapse detail: collapses, smoothing moves (our extension), refusals by reason, rest')
-    print('volume change, region tets with Q < 0.05 without and with collapse')
-    print('%-20s %6s %6s %6s %6s %6s %6s %10s %8s %8s' % ('incision', 'coll', 'smooth', 'link',
-                                                        'bound', 'invert', 'qual', 'dV rest %',
-                                                        '<.05 pl', '<.05 co'))
+    print('Collapse detail: collapses, smoothing moves and flips (our extensions), refusals by')
+    print('reason, rest volume change, region tets with Q < 0.05 without and with collapse')
+    print('%-20s %6s %6s %6s %6s %6s %6s %6s %10s %8s %8s' % (
+        'incision', 'coll', 'smooth', 'flip', 'link', 'bound', 'invert', 'qual', 'dV rest %',
+        '<.05 pl', '<.05 co'))
     for name, plain, coll, plain_vtk, coll_vtk in rows:
         c = coll['collapse']
         dv = 100.0 * (coll['volume_rest'] - coll['initial']['volume_rest']) / coll['initial']['volume_rest']
         qp, qc = region_cells(plain_vtk)[0], region_cells(coll_vtk)[0]
-        print('%-20s %6d %6d %6d %6d %6d %6d %10.4f %7.1f%% %7.1f%%' % (
-            name, c['collapsed_edges'], c.get('smoothed_vertices', 0), c['rejected']['link'],
+        print('%-20s %6d %6d %6d %6d %6d %6d %6d %10.4f %7.1f%% %7.1f%%' % (
+            name, c['collapsed_edges'], c.get('smoothed_vertices', 0), c.get('flips', 0),
+            c['rejected']['link'],
             c['rejected']['boundary'], c['rejected']['inversion'], c['rejected']['quality'], dv,
             100.0 * np.mean(qp < 0.05), 100.0 * np.mean(qc < 0.05)))
     print('issue 4: <= 2.5 tets per cut tet, mean Q >= 0.5, < 1% below 0.05, volume within 0.1%')

@@ -56,6 +56,7 @@ nlohmann::json Statistics::toJson() const {
                    {"removed_tetrahedra", collapse.removed_tetrahedra},
                    {"pending", collapse.pending},
                    {"smoothed_vertices", collapse.smoothed_vertices},
+                   {"flips", collapse.flips},
                    {"rejected",
                     {{"link", collapse.rejected_link},
                      {"inversion", collapse.rejected_inversion},

@@ -66,6 +66,10 @@ void Tissue::reset() {
   collapse_->setShapeTolerance(kShapeTolerance, kVolumeBudget * mesh_.restVolume());
   // Vertices the physics holds still keep their place.
   collapse_->setSmoothing(true, [this](int v) { return physics_->fixed(v); });
+  // The cutter knows a blade coming back along a wound by the wound vertices at the ends of the
+  // edges it crosses; flips make only edges it would know so (without this rule, 20 passes
+  // back and forth with physics re-cut 5,100 tets instead of 383).
+  collapse_->setFlips(true, [this](int u, int v) { return cutter_->mayJoin(u, v); });
   cut_region_.assign(mesh_.tetSlots(), 0);
   tick_times_.clear();
   initial_volume_ = mesh_.restVolume();
@@ -157,6 +161,7 @@ Statistics Tissue::statistics() const {
   s.collapse.rejected_quality = c.rejected_quality;
   s.collapse.rejected_boundary = c.rejected_boundary;
   s.collapse.smoothed_vertices = c.smoothed_vertices;
+  s.collapse.flips = c.flips;
   s.collapse.time_ms = c.time_ms;
   s.physics.mass_total = physics_->totalMass();
   s.physics.kinetic_energy = physics_->kineticEnergy();

@@ -74,6 +74,13 @@ class Cutter {
   /// True for vertices a remesher must leave alone: next to a tet still being cut, on a cut face
   /// not opened yet, or waiting to be split.
   bool isBusy(int v) const;
+  /// True for vertices on a cut: snapped onto one, made by one, or copies of those.
+  bool onWound(int v) const;
+  /// Whether a remesher may make the new edge uv: every point of it lies within the wound band
+  /// (wound_snap times the mean edge) of one of its ends on a wound, in current positions. A
+  /// blade coming back along a wound that the tissue has moved since follows it where it crosses
+  /// an edge near such an end (see woundAround); a new edge far from any wound end would be cut.
+  bool mayJoin(int u, int v) const;
   const CutCounts& counts() const { return counts_; }
   const std::unordered_set<int>& verticesOnCut() const { return on_cut_; }
   /// Resets all cut state (after the mesh was replaced).
@@ -139,7 +146,6 @@ class Cutter {
   std::vector<int> pending_of_;          // per tet slot
   std::unordered_set<int> on_cut_;       // vertices lying on the cut surface (snapped)
   std::unordered_set<int> wound_;        // points the cutter made on cut surfaces, and copies
-  bool onWound(int v) const;             // snapped onto a cut, or made by one
   /// A crossing at x of the edge or face `verts` lies on an earlier cut in the tets around it.
   bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold

@@ -1,9 +1,10 @@
 // CollapseQueue: the paper's on-the-fly edge collapse. Tets a cut creates with quality Q < tau
 // are queued, lowest Q first; each tick the queue is worked off within a time budget, skipping
 // tets next to tets still being cut. A tet's six edges are checked (each both ways where allowed)
-// and the collapse leaving the best worst quality is taken. Our extension: when none may go, one
-// of its vertices is smoothed (see vertex_smoothing.hpp), which often lets a collapse through
-// later. An edge or vertex refused is not checked again until its neighbourhood changes.
+// and the collapse leaving the best worst quality is taken. Our extensions: when none may go, the
+// best flip among tets made by cuts (2-3, edge removal, 2-2: see flips.hpp), else a move of one
+// of its vertices (see vertex_smoothing.hpp); both often let a collapse through later. An edge
+// or vertex refused is not checked again until its neighbourhood changes.
 #pragma once
 
 #include <functional>
@@ -18,9 +19,10 @@ namespace tissue_cut {
 
 struct CollapseCounts {
   int collapsed_edges = 0;
-  int removed_tetrahedra = 0;  ///< #RmT
+  int removed_tetrahedra = 0;  ///< #RmT: net tets removed by collapses and flips
   int rejected_link = 0, rejected_inversion = 0, rejected_quality = 0, rejected_boundary = 0;
   int smoothed_vertices = 0;  ///< accepted smoothing moves
+  int flips = 0;              ///< accepted flips (2-3, edge removal, 2-2)
   double time_ms = 0.0;       ///< t.EC
 };
 
@@ -59,6 +61,12 @@ class CollapseQueue {
     smoothing_ = enabled;
     pinned_ = std::move(pinned);
   }
+  /// Flips on or off (on by default); `may_join(u, v)` (null: always) tells which new edges a
+  /// flip may make.
+  void setFlips(bool enabled, std::function<bool(int, int)> may_join = nullptr) {
+    flips_ = enabled;
+    may_join_ = std::move(may_join);
+  }
   void clear();
 
  private:
@@ -76,6 +84,10 @@ class CollapseQueue {
   // The best accepted collapse of an edge of tv, if any; else one smoothing move of a vertex.
   bool collapseBest(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
                     ChangeRecord* change);
+  // The flip of a face or edge of tet t raising the worst Q most, among tets made by cuts whose
+  // vertices are not busy.
+  bool flipBest(int t, const std::function<bool(int)>& busy,
+                const std::function<bool(int)>& created_by_cut, ChangeRecord* change);
   bool smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
                  ChangeRecord* change);
   static long long keyOf(int a, int b);
@@ -90,9 +102,10 @@ class CollapseQueue {
   std::unordered_map<long long, long long> refused_;  // edge or vertex -> its stamp when refused
   std::vector<std::pair<TetVerts, long long>> queued_;  // per tet slot: the entry in the heap
   std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
-  bool smoothing_ = true;
+  bool smoothing_ = true, flips_ = true;
   double shape_tolerance_ = 0.0, volume_budget_ = 0.0, volume_changed_ = 0.0;
   std::function<bool(int)> pinned_;
+  std::function<bool(int, int)> may_join_;
   CollapseCounts counts_;
 };
 

@@ -30,10 +30,6 @@ constexpr double kMinCollapseRelativeVolume = 1e-6;
 /// kMinCollapseRelativeVolume * (longest edge)^3 (positive and not flattened).
 bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 
-/// Inputs: the corners of a tet [m]. Output: whether its signed volume exceeds
-/// kMinCollapseRelativeVolume * (longest edge)^3 (positive and not flattened).
-bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
-
 /// Decides how edge ab would collapse and whether it may.
 /// Inputs: mesh; a, b two live vertices joined by an edge. Output: the check (see CollapseCheck).
 /// Which end moves: the newer vertex (larger id) moves onto the older one, except that a boundary

@@ -798,6 +798,13 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
 
 bool Cutter::onWound(int v) const { return on_cut_.count(v) > 0 || wound_.count(v) > 0; }
 
+bool Cutter::mayJoin(int u, int v) const {
+  const double length = (mesh_->current(u) - mesh_->current(v)).norm();
+  const int ends = (onWound(u) ? 1 : 0) + (onWound(v) ? 1 : 0);
+  return (ends == 2 && length <= 2.0 * wound_snap_distance_) ||
+         (ends == 1 && length <= wound_snap_distance_);
+}
+
 bool Cutter::woundFacing(int v, const Vec3& normal) const {
   // True when a boundary face at v lies within 30 degrees of the plane with this normal.
   for (int t : mesh_->vertexTets(v)) {

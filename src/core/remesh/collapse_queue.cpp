@@ -7,6 +7,7 @@
 #include <set>
 
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/remesh/flips.hpp"
 #include "tissue_cut/remesh/vertex_smoothing.hpp"
 
 namespace tissue_cut {
@@ -16,6 +17,8 @@ namespace {
 // kMaxMoves times: the queue cannot cycle.
 constexpr double kMinSmoothingGain = 1e-3;
 constexpr int kMaxMoves = 8;
+// A flip must raise the worst Q of the tets it replaces by this much.
+constexpr double kMinFlipGain = 1e-3;
 }  // namespace
 
 CollapseQueue::CollapseQueue(TetMesh* mesh, double tau, double budget_us)
@@ -133,6 +136,48 @@ bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(in
   return true;
 }
 
+bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
+                             const std::function<bool(int)>& created_by_cut, ChangeRecord* change) {
+  const TetVerts tv = mesh_->tet(t);
+  auto allowed = [&](const FlipCandidate& c) {
+    for (int r : c.removed) {
+      // Only the cut region is re-made: a flip's tets count as made by the cut.
+      if (!created_by_cut(r)) return false;
+      for (int v : mesh_->tet(r))
+        if (busy(v)) return false;
+    }
+    return true;
+  };
+  FlipCandidate best, candidate;
+  bool found = false;
+  auto consider = [&](bool legal) {
+    if (!legal || !allowed(candidate)) return;
+    if (candidate.volume_change != 0.0 &&
+        std::abs(volume_changed_ + candidate.volume_change) > volume_budget_)
+      return;  // a 2-2 flip of a slightly bent pair: within the collapses' volume budget
+    if (!found || candidate.worst_after > best.worst_after) best = candidate;
+    found = true;
+  };
+  for (int f = 0; f < 4; ++f) consider(flip23(*mesh_, t, f, kMinFlipGain, &candidate, may_join_));
+  for (const auto& edge : kTetEdge) {
+    consider(removeEdge(*mesh_, tv[edge[0]], tv[edge[1]], kMinFlipGain, &candidate, may_join_));
+    consider(flip22(*mesh_, tv[edge[0]], tv[edge[1]], shape_tolerance_, kMinFlipGain, &candidate));
+  }
+  if (!found) return false;
+  ChangeRecord local;
+  const std::vector<int> added = applyFlip(mesh_, best, &local);
+  ++counts_.flips;
+  volume_changed_ += best.volume_change;
+  counts_.removed_tetrahedra +=
+      static_cast<int>(best.removed.size()) - static_cast<int>(best.added.size());
+  change->append(local);
+  std::set<int> verts;
+  for (int a : added)
+    for (int v : mesh_->tet(a)) verts.insert(v);
+  for (int v : verts) touched(v, created_by_cut);
+  return true;
+}
+
 bool CollapseQueue::smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
                               ChangeRecord* change) {
   if (static_cast<int>(moves_.size()) < mesh_->vertexSlots())
@@ -187,8 +232,9 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     }
     queued_[e.tet].second = -1;  // worked: it may be queued again
     attempted = true;
-    if (!collapseBest(e.verts, created_by_cut, change) && smoothing_)
-      smoothAny(e.verts, created_by_cut, change);
+    if (collapseBest(e.verts, created_by_cut, change)) continue;
+    if (flips_ && flipBest(e.tet, busy, created_by_cut, change)) continue;
+    if (smoothing_) smoothAny(e.verts, created_by_cut, change);
   }
   counts_.time_ms += elapsed_us() / 1000.0;
 }

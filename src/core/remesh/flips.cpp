@@ -1,0 +1,214 @@
+#include "tissue_cut/remesh/flips.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/remesh/edge_collapse.hpp"
+#include "tissue_cut/remesh/link_condition.hpp"
+
+namespace tissue_cut {
+
+namespace {
+
+bool sound(const TetMesh& mesh, const TetVerts& tv) {
+  return isSoundTet(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) &&
+         isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
+                    mesh.current(tv[3]));
+}
+
+double quality(const TetMesh& mesh, const TetVerts& tv) {
+  return tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
+}
+
+// Fills worst_after from `added` (all sound) and decides against min_gain.
+bool finish(const TetMesh& mesh, double min_gain, FlipCandidate* c) {
+  c->worst_after = 1.0;
+  for (const TetVerts& tv : c->added) {
+    if (!sound(mesh, tv)) return false;
+    c->worst_after = std::min(c->worst_after, quality(mesh, tv));
+  }
+  return c->worst_after >= c->worst_before + min_gain;
+}
+
+}  // namespace
+
+bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* out,
+            const std::function<bool(int, int)>& may_join) {
+  const int u = mesh.neighbor(t, f);
+  if (u < 0) return false;  // a boundary face: nothing on the other side
+  const TetVerts& tv = mesh.tet(t);
+  const int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]], d = tv[f];
+  int e = -1;
+  for (int v : mesh.tet(u))
+    if (v != a && v != b && v != c) e = v;
+  if (e < 0 || !mesh.edgeTets(d, e).empty()) return false;  // de exists: a flip would fold
+  if (may_join && !may_join(d, e)) return false;
+  FlipCandidate cand;
+  cand.removed = {t, u};
+  cand.worst_before = std::min(restQuality(mesh, t), restQuality(mesh, u));
+  // kTetFace orders abc outward of t: d lies below it, e above. Each new tet is one edge of abc
+  // with d and e, ordered like (a, b, d, e), which is positive when de crosses abc's inside.
+  cand.added = {{a, b, d, e}, {b, c, d, e}, {c, a, d, e}};
+  if (!finish(mesh, min_gain, &cand)) return false;
+  *out = std::move(cand);
+  return true;
+}
+
+bool flip32(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out) {
+  return mesh.edgeTets(a, b).size() == 3 && removeEdge(mesh, a, b, min_gain, out);
+}
+
+bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out,
+                const std::function<bool(int, int)>& may_join) {
+  const std::vector<int> ring_tets = mesh.edgeTets(a, b);
+  const int n = static_cast<int>(ring_tets.size());
+  if (n < 3 || n > kMaxEdgeRing || isBoundaryEdge(mesh, a, b)) return false;
+  // The ring: around an interior edge every tet shares its two faces through ab with the next
+  // one, so the tets' other two vertices chain into one cycle r0 ... r(n-1).
+  std::vector<std::array<int, 2>> pairs;
+  for (int t : ring_tets) {
+    std::array<int, 2> p{-1, -1};
+    int k = 0;
+    for (int v : mesh.tet(t))
+      if (v != a && v != b && k < 2) p[k++] = v;
+    if (k != 2) return false;
+    pairs.push_back(p);
+  }
+  std::vector<int> ring = {pairs[0][0], pairs[0][1]};
+  std::vector<char> used(n, 0);
+  used[0] = 1;
+  while (static_cast<int>(ring.size()) < n) {
+    bool extended = false;
+    for (int i = 0; i < n && !extended; ++i) {
+      if (used[i]) continue;
+      for (int k = 0; k < 2 && !extended; ++k)
+        if (pairs[i][k] == ring.back()) {
+          ring.push_back(pairs[i][1 - k]);
+          used[i] = 1;
+          extended = true;
+        }
+    }
+    if (!extended) return false;
+  }
+  // The last unused pair must close the cycle; ring vertices must be distinct.
+  for (int i = 0; i < n; ++i)
+    if (!used[i] && !((pairs[i][0] == ring.back() && pairs[i][1] == ring[0]) ||
+                      (pairs[i][1] == ring.back() && pairs[i][0] == ring[0])))
+      return false;
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j)
+      if (ring[i] == ring[j]) return false;
+  // Counter-clockwise seen from b: every tet (a, b, r_i, r_i+1) is positive.
+  if (signedVolume(mesh.rest(a), mesh.rest(b), mesh.rest(ring[0]), mesh.rest(ring[1])) < 0)
+    std::reverse(ring.begin(), ring.end());
+
+  // Triangle (i, k, j), i < k < j, gives the tets (r_i, r_k, r_j, b) and (r_i, r_j, r_k, a).
+  // Its worst Q, or -1 when a tet is unsound, a chord is an edge already or the triangle a face.
+  auto triangle = [&](int i, int k, int j) {
+    auto chordFree = [&](int p, int q) {
+      return q - p == 1 || (p == 0 && q == n - 1) ||
+             ((!may_join || may_join(ring[p], ring[q])) && mesh.edgeTets(ring[p], ring[q]).empty());
+    };
+    if (!chordFree(i, k) || !chordFree(k, j) || !chordFree(i, j)) return -1.0;
+    if (mesh.faceTet(ring[i], ring[k], ring[j]) >= 0) return -1.0;
+    const TetVerts up{ring[i], ring[k], ring[j], b}, down{ring[i], ring[j], ring[k], a};
+    if (!sound(mesh, up) || !sound(mesh, down)) return -1.0;
+    return std::min(quality(mesh, up), quality(mesh, down));
+  };
+  // Klincsek's dynamic programme over sub-polygons: the triangulation maximising the worst Q.
+  std::vector<std::vector<double>> best(n, std::vector<double>(n, 1.0));
+  std::vector<std::vector<int>> apex(n, std::vector<int>(n, -1));
+  for (int len = 2; len < n; ++len)
+    for (int i = 0; i + len < n; ++i) {
+      const int j = i + len;
+      best[i][j] = -1.0;
+      for (int k = i + 1; k < j; ++k) {
+        const double q = std::min({best[i][k], best[k][j], triangle(i, k, j)});
+        if (q > best[i][j]) {
+          best[i][j] = q;
+          apex[i][j] = k;
+        }
+      }
+    }
+  FlipCandidate cand;
+  cand.removed = ring_tets;
+  cand.worst_before = 1.0;
+  for (int t : ring_tets) cand.worst_before = std::min(cand.worst_before, restQuality(mesh, t));
+  if (!(best[0][n - 1] >= cand.worst_before + min_gain)) return false;
+  std::vector<std::array<int, 2>> todo = {{0, n - 1}};
+  while (!todo.empty()) {
+    const auto [i, j] = todo.back();
+    todo.pop_back();
+    if (j - i < 2) continue;
+    const int k = apex[i][j];
+    cand.added.push_back({ring[i], ring[k], ring[j], b});
+    cand.added.push_back({ring[i], ring[j], ring[k], a});
+    todo.push_back({i, k});
+    todo.push_back({k, j});
+  }
+  if (!finish(mesh, min_gain, &cand)) return false;
+  *out = std::move(cand);
+  return true;
+}
+
+bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double min_gain,
+            FlipCandidate* out) {
+  const std::vector<int> pair_tets = mesh.edgeTets(a, b);
+  if (pair_tets.size() != 2) return false;
+  // The apex x both tets share across their common face abx, and each tet's own vertex c, d.
+  const TetVerts &t0 = mesh.tet(pair_tets[0]), &t1 = mesh.tet(pair_tets[1]);
+  int x = -1, c = -1, d = -1;
+  for (int v : t0)
+    if (v != a && v != b && std::find(t1.begin(), t1.end(), v) != t1.end()) x = v;
+  if (x < 0) return false;
+  for (int v : t0)
+    if (v != a && v != b && v != x) c = v;
+  for (int v : t1)
+    if (v != a && v != b && v != x) d = v;
+  if (c < 0 || d < 0 || c == d || !mesh.edgeTets(c, d).empty()) return false;
+  // abc and abd must both be boundary faces: the face opposite x in each tet.
+  for (int k = 0; k < 2; ++k) {
+    const int t = pair_tets[k];
+    const TetVerts& tv = mesh.tet(t);
+    const int f = static_cast<int>(std::find(tv.begin(), tv.end(), x) - tv.begin());
+    if (mesh.neighbor(t, f) >= 0) return false;
+  }
+  // Flat enough: each of c, d near the other triangle's plane.
+  auto offPlane = [&](int p, int q, int r, int s) {
+    const Vec3 n = (mesh.rest(q) - mesh.rest(p)).cross(mesh.rest(r) - mesh.rest(p));
+    double longest = std::max({(mesh.rest(q) - mesh.rest(p)).norm(),
+                               (mesh.rest(r) - mesh.rest(q)).norm(),
+                               (mesh.rest(p) - mesh.rest(r)).norm()});
+    if (!(n.norm() > 0) || !(longest > 0)) return std::numeric_limits<double>::infinity();
+    return std::abs(n.dot(mesh.rest(s) - mesh.rest(p))) / n.norm() / longest;
+  };
+  if (offPlane(a, b, c, d) > shape_tolerance || offPlane(a, b, d, c) > shape_tolerance)
+    return false;
+  FlipCandidate cand;
+  cand.removed = pair_tets;
+  cand.worst_before = std::min(restQuality(mesh, pair_tets[0]), restQuality(mesh, pair_tets[1]));
+  // Orient cdx so that a lies on its positive side; b then lies on the other.
+  TetVerts first{c, d, x, a}, second{c, x, d, b};
+  if (signedVolume(mesh.rest(c), mesh.rest(d), mesh.rest(x), mesh.rest(a)) < 0) {
+    first = {c, x, d, a};
+    second = {c, d, x, b};
+  }
+  cand.added = {first, second};
+  if (!finish(mesh, min_gain, &cand)) return false;
+  double before = 0.0, after = 0.0;
+  for (int t : pair_tets) before += mesh.restVolume(t);
+  for (const TetVerts& tv : cand.added)
+    after += signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
+  cand.volume_change = after - before;
+  *out = std::move(cand);
+  return true;
+}
+
+std::vector<int> applyFlip(TetMesh* mesh, const FlipCandidate& flip, ChangeRecord* record) {
+  return mesh->replaceTets(flip.removed, flip.added, record);
+}
+
+}  // namespace tissue_cut
