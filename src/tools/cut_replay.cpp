@@ -44,7 +44,8 @@ Replays a scalpel path over a tissue mesh, offline, with the node's own Tissue::
   --blade-length L     blade length [m] (cut/blade_length)
   --rate HZ            ticks per second (rate), default 1000
   --settle SECONDS     keep simulating this long after the path ends (blade stays put);
-                       then one last tick lifts the blade out
+                       then one tick lifts the blade out, and up to as long again
+                       works off the collapse queue (blade away)
   --no-physics         physics/enabled = false
   --no-collapse        collapse/enabled = false (edge collapse behind the cut is on by default)
   --tau T              collapse/tau
@@ -220,13 +221,11 @@ int main(int argc, char** argv) {
   TickTimes cpu_times;
   double cpu_total_ms = 0.0;
   // The last tick takes the blade away (lifted out of the tissue), so the cut it made is finished:
-  // every tet it was still inside is replaced and opened.
-  for (long long k = 1; k <= ticks + 1; ++k) {
-    std::optional<BladeSegment> blade;
-    if (path && k <= ticks) {
-      const ToolPose pose = path->at(std::min(t0 + k * dt, t_path));
-      blade = bladeFromPose(pose.position, pose.orientation, config.cut.blade_length);
-    }
+  // every tet it was still inside is replaced and opened. With --settle, the ticks after it (up to
+  // `settle` seconds more, blade away) work off what the collapse queue still holds: a path that
+  // ends inside the tissue leaves the tets around the blade busy until it is lifted.
+  long long done = 0;
+  auto tick = [&](long long k, const std::optional<BladeSegment>& blade) {
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start = threadCpuMs();
     const std::string warning = tissue->step(blade, dt);
@@ -238,15 +237,30 @@ int main(int argc, char** argv) {
     tissue->tickTimes().record(ms, deadline_ms);
     cpu_times.record(cpu_ms, deadline_ms);
     cpu_total_ms += cpu_ms;
+    ++done;
     if (opt.check) {
       const std::string err = tissue->validate();
       if (!err.empty()) {
         std::cerr << "cut_replay: tick " << k << " (t = " << t0 + k * dt
                   << " s): invalid mesh: " << err << "\n";
-        return kExitInvalid;
+        return false;
       }
     }
+    return true;
+  };
+  long long k = 1;
+  for (; k <= ticks + 1; ++k) {
+    std::optional<BladeSegment> blade;
+    if (path && k <= ticks) {
+      const ToolPose pose = path->at(std::min(t0 + k * dt, t_path));
+      blade = bladeFromPose(pose.position, pose.orientation, config.cut.blade_length);
+    }
+    if (!tick(k, blade)) return kExitInvalid;
   }
+  const auto after = static_cast<long long>(std::ceil(opt.settle / dt - 1e-9));
+  for (long long i = 0; i < after && config.collapse.enabled && tissue->collapse().pending() > 0;
+       ++i, ++k)
+    if (!tick(k, std::nullopt)) return kExitInvalid;
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
 
@@ -257,7 +271,7 @@ int main(int argc, char** argv) {
   stats.ticks.cpu_p99_ms = cpu_times.percentile(99);
   stats.ticks.cpu_max_ms = cpu_times.max();
   stats.ticks.cpu_total_ms = cpu_total_ms;
-  stats.ticks.real_time_factor = wall_s > 0 ? (ticks + 1) * dt / wall_s : 0.0;
+  stats.ticks.real_time_factor = wall_s > 0 ? done * dt / wall_s : 0.0;
   try {
     if (!opt.out.empty()) writeMesh(opt.out, tissue->exportMesh());
     if (!opt.stats.empty()) {
