@@ -16,7 +16,7 @@ namespace {
 // A smoothing move must raise its star's worst Q by this much, and a vertex moves at most
 // kMaxMoves times: the queue cannot cycle.
 constexpr double kMinSmoothingGain = 1e-3;
-constexpr int kMaxMoves = 8;
+constexpr int kMaxMoves = 16;
 // A flip must raise the worst Q of the tets it replaces by this much.
 constexpr double kMinFlipGain = 1e-3;
 }  // namespace
