@@ -127,6 +127,19 @@ TEST(TetMesh, RefusedReplacementLeavesTheMeshUnchanged) {
   EXPECT_EQ(mesh.validate(), "");
 }
 
+TEST(TetMesh, ReplacementRefusesAFlatTet) {
+  // A split whose piece is flat (a point on an edge of its own base) must not reach the mesh:
+  // validate() would call it invalid. Refused before anything changes.
+  TetMesh mesh = twoTets();
+  const TetVerts t0 = mesh.tet(0);
+  const int mid = mesh.addVertex({{t0[0], 0.5}, {t0[1], 0.5}}, nullptr);
+  EXPECT_THROW(mesh.replaceTets({0}, {{t0[0], t0[1], t0[2], mid}}, nullptr), std::logic_error);
+  EXPECT_EQ(mesh.numTets(), 2);
+  EXPECT_EQ(mesh.tet(0), t0);
+  mesh.removeVertex(mid, nullptr);
+  EXPECT_EQ(mesh.validate(), "");
+}
+
 TEST(TetMesh, ValidateNamesAZeroVolumeTet) {
   Eigen::MatrixXd V(4, 3);
   V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0;

@@ -349,6 +349,11 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
       for (int j = 0; j < i; ++j)
         if (tv[i] == tv[j]) throw std::logic_error("TetMesh::replaceTets: repeated vertex");
     }
+    // validate()'s own test: a flat or inverted tet would make the mesh invalid.
+    if (!(signedVolume(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]) > 0.0))
+      throw std::logic_error("TetMesh::replaceTets: tet (" + std::to_string(tv[0]) + ", " +
+                             std::to_string(tv[1]) + ", " + std::to_string(tv[2]) + ", " +
+                             std::to_string(tv[3]) + ") has no positive rest volume");
     for (const auto& f : kTetFace) ++new_faces[sortedFace(tv[f[0]], tv[f[1]], tv[f[2]])];
   }
   for (const auto& [key, count] : new_faces) {
