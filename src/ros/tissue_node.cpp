@@ -14,6 +14,7 @@ namespace tissue_cut {
 namespace {
 
 constexpr double kWarnPeriod = 1.0;  // [s] between repeats of one kind of warning
+constexpr double kMaxCatchUp = 4.0;  // a late tick simulates at most this many periods
 
 YAML::Node toYaml(const XmlRpc::XmlRpcValue& v, const std::string& name) {
   XmlRpc::XmlRpcValue value = v;  // XmlRpc's conversions are not const
@@ -272,6 +273,7 @@ void TissueNode::tickLoop() {
       std::chrono::duration<double>(dt));
   const double period_ms = 1e3 * dt;
   auto next = SteadyClock::now();
+  std::optional<SteadyClock::time_point> last_start;
   while (running_ && ros::ok()) {
     next += period;
     std::this_thread::sleep_until(next);
@@ -280,7 +282,15 @@ void TissueNode::tickLoop() {
     {
       std::lock_guard<std::mutex> lock(model_mutex_);
       const auto t0 = SteadyClock::now();
-      warning = tissue_->step(blade, dt);
+      // A tick that starts late steps the simulation by the time that passed (at most
+      // kMaxCatchUp periods), so the tissue keeps pace with the scalpel, which moves in real
+      // time. Stepping one period while the scalpel moved several let later strokes meet the
+      // tissue where it had not moved yet: a 20-pass soak behind schedule re-cut its way to
+      // 55,680 tets.
+      const double step_dt =
+          last_start ? std::clamp(seconds(t0 - *last_start), dt, kMaxCatchUp * dt) : dt;
+      last_start = t0;
+      warning = tissue_->step(blade, step_dt);
       const auto t1 = SteadyClock::now();
       last_blade_ = blade;
       window_.record(1e3 * seconds(t1 - t0), period_ms);
