@@ -117,8 +117,8 @@ TEST(BackAndForth, WithPhysicsTheMeshStaysValidAndBounded) {
 
 // A blade following its wound cuts along faces that are already boundary: there is nothing to
 // open there. Such cuts once stayed marked as "to open" for good, and their vertices busy, so the
-// collapse queue waited on them forever (193 busy vertices after pass 2 with physics, against 9
-// after pass 1: the crack front's own).
+// collapse queue waited on them forever (190 busy vertices after 3 passes with physics, against 9
+// after 1: the crack front's own).
 TEST(BackAndForth, FollowingTheWoundLeavesNothingWaiting) {
   Config config;
   config.rate = 250.0;

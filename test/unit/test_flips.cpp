@@ -110,7 +110,7 @@ TEST(Flips, ThreeTwoFlipOfThreeNeedlesRaisesTheWorstQualityAndKeepsTheVolume) {
   ASSERT_EQ(mesh.validate(), "");
   const double volume = mesh.restVolume();
   FlipCandidate flip;
-  ASSERT_TRUE(flip32(mesh, 3, 4, 1e-3, &flip));
+  ASSERT_TRUE(removeEdge(mesh, 3, 4, 1e-3, &flip));
   EXPECT_EQ(flip.added.size(), 2u);
   EXPECT_GT(flip.worst_after, 0.8);  // the pair: 0.83
   applyFlip(&mesh, flip, nullptr);
@@ -123,10 +123,10 @@ TEST(Flips, ThreeTwoFlipOfThreeNeedlesRaisesTheWorstQualityAndKeepsTheVolume) {
 TEST(Flips, ThreeTwoFlipIsRefusedOnBoundaryEdgesAndWhereItCannotHelp) {
   FlipCandidate flip;
   TetMesh good = triple(0.3);  // the three tets (Q 0.66) beat the pair (0.52)
-  EXPECT_FALSE(flip32(good, 3, 4, 1e-3, &flip));
+  EXPECT_FALSE(removeEdge(good, 3, 4, 1e-3, &flip));
   TetMesh needles = triple(1.5);
-  EXPECT_FALSE(flip32(needles, 0, 1, -1.0, &flip));  // ab lies on the boundary
-  EXPECT_FALSE(flip32(needles, 0, 3, -1.0, &flip));  // so does ad
+  EXPECT_FALSE(removeEdge(needles, 0, 1, -1.0, &flip));  // ab lies on the boundary
+  EXPECT_FALSE(removeEdge(needles, 0, 3, -1.0, &flip));  // so does ad
 }
 
 // n needles around the edge from (0, 0, -h) (vertex 0) to (0, 0, h) (vertex 1), their ring on the
@@ -243,8 +243,8 @@ TEST(Flips, TwoThreeThenThreeTwoGivesBackThePair) {
   FlipCandidate flip;
   ASSERT_TRUE(flip23(mesh, 0, sharedFace(mesh), 1e-3, &flip));
   applyFlip(&mesh, flip, nullptr);
-  ASSERT_FALSE(flip32(mesh, 3, 4, 1e-3, &flip));  // no way back uphill: flips cannot cycle
-  ASSERT_TRUE(flip32(mesh, 3, 4, -1.0, &flip));
+  ASSERT_FALSE(removeEdge(mesh, 3, 4, 1e-3, &flip));  // no way back uphill: flips cannot cycle
+  ASSERT_TRUE(removeEdge(mesh, 3, 4, -1.0, &flip));
   applyFlip(&mesh, flip, nullptr);
   EXPECT_EQ(mesh.validate(), "");
   EXPECT_EQ(tetSets(mesh), original);

@@ -81,7 +81,7 @@ class CollapseQueue {
   long long stampOf(int a, int b) const;
   long long stampOf(const TetVerts& tv) const;
   void touched(int v, const std::function<bool(int)>& created_by_cut);
-  // The best accepted collapse of an edge of tv, if any; else one smoothing move of a vertex.
+  // The best accepted collapse of an edge of tv, if any.
   bool collapseBest(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
                     ChangeRecord* change);
   // The flip of a face or edge of tet t raising the worst Q most, among tets made by cuts whose

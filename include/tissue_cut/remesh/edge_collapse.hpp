@@ -30,6 +30,15 @@ constexpr double kMinCollapseRelativeVolume = 1e-6;
 /// kMinCollapseRelativeVolume * (longest edge)^3 (positive and not flattened).
 bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 
+/// Inputs: mesh, a tet's vertex ids (need not be a tet of the mesh yet). Output: isSoundTet in rest
+/// and in current positions: what every tet a remesher makes must be.
+bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv);
+
+/// Inputs: a triangle p, q, r and a displacement d [m]. Output: d's component along the
+/// triangle's normal relative to its longest edge (infinity for a degenerate triangle): how far a
+/// point moved by d leaves the plane, the measure the boundary shape tolerance bounds.
+double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d);
+
 /// Decides how edge ab would collapse and whether it may.
 /// Inputs: mesh; a, b two live vertices joined by an edge. Output: the check (see CollapseCheck).
 /// Which end moves: the newer vertex (larger id) moves onto the older one, except that a boundary

@@ -18,7 +18,7 @@ namespace tissue_cut {
 
 /// One flip that may be done: which tets go and which come.
 struct FlipCandidate {
-  std::vector<int> removed;       ///< tet ids (2 for a 2-3 flip, 3 for a 3-2 flip)
+  std::vector<int> removed;       ///< tet ids (2 for 2-3 and 2-2 flips, n for edge removal)
   std::vector<TetVerts> added;    ///< positively oriented in rest positions
   double worst_before = 0.0;      ///< worst rest Q over `removed`
   double worst_after = 0.0;       ///< worst rest Q over `added`
@@ -37,7 +37,7 @@ bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* o
 /// Largest ring removeEdge works on.
 constexpr int kMaxEdgeRing = 10;
 
-/// Edge removal (the 3-2 flip's generalisation, Shewchuk 2002): the n tets around an interior
+/// Edge removal (the 3-2 flip's generalisation, Shewchuk 2002; n = 3 is the 3-2 flip): the n tets around an interior
 /// edge ab (3 <= n <= kMaxEdgeRing) are replaced by 2n - 4 tets joining each triangle of a
 /// triangulation of ab's ring polygon to a and to b. The triangulation maximising the worst rest
 /// Q is found by dynamic programming over sub-polygons; chords that are edges already and
@@ -46,10 +46,6 @@ constexpr int kMaxEdgeRing = 10;
 /// `may_join(u, v)` (null: always) must allow every chord used.
 bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out,
                 const std::function<bool(int, int)>& may_join = nullptr);
-
-/// Inputs: mesh; a, b the ends of an edge. Output: the 3-2 flip of edge ab: removeEdge when ab
-/// is held by exactly three tets (its ring is one triangle, which must not be a face yet).
-bool flip32(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out);
 
 /// Inputs: mesh; a, b the ends of a boundary edge held by exactly two tets, abcx and abdx (abc and
 /// abd its boundary faces, abx the face between the tets); shape_tolerance as for checkCollapse.

@@ -24,16 +24,10 @@ double boundaryDeviation(const TetMesh& mesh, int removed, int survivor) {
     const TetVerts& tv = mesh.tet(t);
     for (int f = 0; f < 4; ++f) {
       if (mesh.neighbor(t, f) >= 0 || tv[f] == removed) continue;
-      const Vec3& p = mesh.rest(tv[kTetFace[f][0]]);
-      const Vec3 n = (mesh.rest(tv[kTetFace[f][1]]) - p).cross(mesh.rest(tv[kTetFace[f][2]]) - p);
-      const double len = n.norm();
-      if (!(len > 0)) return std::numeric_limits<double>::infinity();
-      double longest = 0.0;
-      for (int i = 0; i < 3; ++i)
-        longest = std::max(
-            longest,
-            (mesh.rest(tv[kTetFace[f][i]]) - mesh.rest(tv[kTetFace[f][(i + 1) % 3]])).norm());
-      worst = std::max(worst, std::abs(n.dot(move)) / len / longest);
+      worst = std::max(worst, planeDeviation(mesh.rest(tv[kTetFace[f][0]]),
+                                             mesh.rest(tv[kTetFace[f][1]]),
+                                             mesh.rest(tv[kTetFace[f][2]]), move));
+      if (std::isinf(worst)) return worst;
     }
   }
   return worst;
@@ -66,9 +60,7 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
     TetVerts tv = mesh.tet(t);
     if (contains(tv, check.survivor)) continue;  // vanishes with the edge
     *std::find(tv.begin(), tv.end(), check.removed) = check.survivor;
-    if (!isSoundTet(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) ||
-        !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
-                    mesh.current(tv[3]))) {
+    if (!isSoundInMesh(mesh, tv)) {
       check.refusal = CollapseRefusal::kInversion;
       check.worst_after = 0.0;  // a flattened tet has Q = 0
       return check;
@@ -104,6 +96,20 @@ bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) 
   double longest = 0.0;
   for (const auto& e : kTetEdge) longest = std::max(longest, (*p[e[0]] - *p[e[1]]).norm());
   return signedVolume(p0, p1, p2, p3) > kMinCollapseRelativeVolume * longest * longest * longest;
+}
+
+bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv) {
+  return isSoundTet(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) &&
+         isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
+                    mesh.current(tv[3]));
+}
+
+double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d) {
+  const Vec3 n = (q - p).cross(r - p);
+  const double len = n.norm();
+  if (!(len > 0)) return std::numeric_limits<double>::infinity();
+  const double longest = std::max({(p - q).norm(), (q - r).norm(), (r - p).norm()});
+  return std::abs(n.dot(d)) / len / longest;
 }
 
 CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance) {

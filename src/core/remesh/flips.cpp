@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
-#include <limits>
 
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
@@ -13,12 +11,6 @@ namespace tissue_cut {
 
 namespace {
 
-bool sound(const TetMesh& mesh, const TetVerts& tv) {
-  return isSoundTet(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) &&
-         isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
-                    mesh.current(tv[3]));
-}
-
 double quality(const TetMesh& mesh, const TetVerts& tv) {
   return tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
 }
@@ -27,7 +19,7 @@ double quality(const TetMesh& mesh, const TetVerts& tv) {
 bool finish(const TetMesh& mesh, double min_gain, FlipCandidate* c) {
   c->worst_after = 1.0;
   for (const TetVerts& tv : c->added) {
-    if (!sound(mesh, tv)) return false;
+    if (!isSoundInMesh(mesh, tv)) return false;
     c->worst_after = std::min(c->worst_after, quality(mesh, tv));
   }
   return c->worst_after >= c->worst_before + min_gain;
@@ -55,10 +47,6 @@ bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* o
   if (!finish(mesh, min_gain, &cand)) return false;
   *out = std::move(cand);
   return true;
-}
-
-bool flip32(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out) {
-  return mesh.edgeTets(a, b).size() == 3 && removeEdge(mesh, a, b, min_gain, out);
 }
 
 bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out,
@@ -115,7 +103,7 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
     if (!chordFree(i, k) || !chordFree(k, j) || !chordFree(i, j)) return -1.0;
     if (mesh.faceTet(ring[i], ring[k], ring[j]) >= 0) return -1.0;
     const TetVerts up{ring[i], ring[k], ring[j], b}, down{ring[i], ring[j], ring[k], a};
-    if (!sound(mesh, up) || !sound(mesh, down)) return -1.0;
+    if (!isSoundInMesh(mesh, up) || !isSoundInMesh(mesh, down)) return -1.0;
     return std::min(quality(mesh, up), quality(mesh, down));
   };
   // Klincsek's dynamic programme over sub-polygons: the triangulation maximising the worst Q.
@@ -177,15 +165,9 @@ bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double mi
     if (mesh.neighbor(t, f) >= 0) return false;
   }
   // Flat enough: each of c, d near the other triangle's plane.
-  auto offPlane = [&](int p, int q, int r, int s) {
-    const Vec3 n = (mesh.rest(q) - mesh.rest(p)).cross(mesh.rest(r) - mesh.rest(p));
-    double longest = std::max({(mesh.rest(q) - mesh.rest(p)).norm(),
-                               (mesh.rest(r) - mesh.rest(q)).norm(),
-                               (mesh.rest(p) - mesh.rest(r)).norm()});
-    if (!(n.norm() > 0) || !(longest > 0)) return std::numeric_limits<double>::infinity();
-    return std::abs(n.dot(mesh.rest(s) - mesh.rest(p))) / n.norm() / longest;
-  };
-  if (offPlane(a, b, c, d) > shape_tolerance || offPlane(a, b, d, c) > shape_tolerance)
+  const Vec3 &pa = mesh.rest(a), &pb = mesh.rest(b), &pc = mesh.rest(c), &pd = mesh.rest(d);
+  if (planeDeviation(pa, pb, pc, pd - pa) > shape_tolerance ||
+      planeDeviation(pa, pb, pd, pc - pa) > shape_tolerance)
     return false;
   FlipCandidate cand;
   cand.removed = pair_tets;
