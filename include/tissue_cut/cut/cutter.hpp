@@ -82,6 +82,8 @@ class Cutter {
   /// an edge near such an end (see woundAround); a new edge far from any wound end would be cut.
   bool mayJoin(int u, int v) const;
   const CutCounts& counts() const { return counts_; }
+  /// Mean rest edge length of the mesh the cutter started on [m].
+  double meanEdge() const { return mean_edge_; }
   const std::unordered_set<int>& verticesOnCut() const { return on_cut_; }
   /// Resets all cut state (after the mesh was replaced).
   void reset();

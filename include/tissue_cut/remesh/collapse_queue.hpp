@@ -7,6 +7,7 @@
 // or vertex refused is not checked again until its neighbourhood changes.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <queue>
 #include <unordered_map>
@@ -14,6 +15,7 @@
 
 #include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
+#include "tissue_cut/remesh/flips.hpp"
 
 namespace tissue_cut {
 
@@ -47,11 +49,15 @@ class CollapseQueue {
   void setTau(double tau) { tau_ = tau; }
   void setBudget(double budget_us) { budget_us_ = budget_us; }
   /// Boundary collapses may tilt the boundary faces that move by up to `shape_tolerance` (relative
-  /// to each face's longest edge, see checkCollapse), as long as the net rest volume they change
-  /// stays within `volume_budget` [m^3]. Default 0, 0: the boundary keeps its shape exactly.
-  void setShapeTolerance(double shape_tolerance, double volume_budget) {
+  /// to the larger of each face's longest edge and `length_floor` [m], see checkCollapse), as long
+  /// as the net rest volume they change stays within `volume_budget` [m^3]. With a length floor,
+  /// no boundary vertex collapsed away may end up further than shape_tolerance * length_floor from
+  /// the surface, however many operations reach its place. Default 0, 0, 0: the boundary keeps
+  /// its shape exactly.
+  void setShapeTolerance(double shape_tolerance, double volume_budget, double length_floor = 0.0) {
     shape_tolerance_ = shape_tolerance;
     volume_budget_ = volume_budget;
+    length_floor_ = length_floor;
   }
   /// Net rest volume changed so far by boundary collapses [m^3].
   double volumeChanged() const { return volume_changed_; }
@@ -102,8 +108,21 @@ class CollapseQueue {
   std::unordered_map<long long, long long> refused_;  // edge or vertex -> its stamp when refused
   std::vector<std::pair<TetVerts, long long>> queued_;  // per tet slot: the entry in the heap
   std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
+  // Where the cut left the surface: the rest positions of boundary vertices collapsed away, each
+  // kept by the vertex that took its place. Collapses and 2-2 flips keep every such point within
+  // shape_tolerance_ * length_floor_ of the surface around the vertex holding it, so the surface
+  // never drifts further than that from the cut's, however many operations reach a place.
+  std::unordered_map<int, std::vector<Vec3>> ghosts_;
+  using Triangle = std::array<Vec3, 3>;
+  void boundaryFacesAround(int v, int removed, int survivor, const FlipCandidate* flip,
+                           std::vector<Triangle>* out) const;
+  bool ghostsNear(const std::vector<Vec3>& points, const std::vector<Triangle>& faces) const;
+  bool ghostsKept(int removed, int survivor) const;
+  bool ghostsKept(const FlipCandidate& flip) const;
+  void moveGhosts(int removed, int survivor);
+  void surfaceShifted(const std::vector<int>& verts, double total);
   bool smoothing_ = true, flips_ = true;
-  double shape_tolerance_ = 0.0, volume_budget_ = 0.0, volume_changed_ = 0.0;
+  double shape_tolerance_ = 0.0, volume_budget_ = 0.0, volume_changed_ = 0.0, length_floor_ = 0.0;
   std::function<bool(int)> pinned_;
   std::function<bool(int, int)> may_join_;
   CollapseCounts counts_;

@@ -34,10 +34,31 @@ bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 /// and in current positions: what every tet a remesher makes must be.
 bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv);
 
-/// Inputs: a triangle p, q, r and a displacement d [m]. Output: d's component along the
-/// triangle's normal relative to its longest edge (infinity for a degenerate triangle): how far a
-/// point moved by d leaves the plane, the measure the boundary shape tolerance bounds.
-double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d);
+/// Inputs: a triangle p, q, r, a displacement d [m] and a length floor [m]. Output: d's component
+/// along the triangle's normal relative to the larger of its longest edge and length_floor
+/// (infinity for a degenerate triangle): how far a point moved by d leaves the plane, the measure
+/// the boundary shape tolerance bounds. The floor makes the measure absolute on faces shorter than
+/// it: a cluster of sub-millimetre faces at a cut's rim may be evened out by a move that changes
+/// the shape by no more than the tolerance times the floor (the remesher uses the mean edge, so
+/// the surface moves no further than the cutter's own snapping does).
+double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d,
+                      double length_floor = 0.0);
+
+/// Inputs: a point x and a triangle abc. Output: the distance [m] from x to the closest point of
+/// the triangle (its interior, an edge or a corner).
+double pointTriangleDistance(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c);
+
+/// Boundary edges whose two boundary faces turn back on each other (outward normals at more than
+/// about 154 degrees: cosine below this) with the material wrapped around the edge (the dihedral
+/// angles of its tets add up to more than pi) are folds: a crack front, where both walls of a cut
+/// meet inside the body and lie on each other in rest positions. (A knife edge, a sliver's edge
+/// on the boundary, has turned-back faces too, but next to no material around it.)
+constexpr double kFoldCosine = -0.9;
+
+/// Inputs: mesh, a vertex v. Output: the vertices u (ascending) for which uv is a fold edge (rest
+/// positions). A vertex inside a crack front has two; one where the front ends at the skin, three
+/// or more where fronts meet.
+std::vector<int> foldNeighbours(const TetMesh& mesh, int v);
 
 /// Decides how edge ab would collapse and whether it may.
 /// Inputs: mesh; a, b two live vertices joined by an edge. Output: the check (see CollapseCheck).
@@ -55,12 +76,20 @@ double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d
 ///  - kBoundary also, with shape_tolerance = 0: the rest volume of the moved vertex's star would
 ///    change by more than 1e-6 (relative), i.e. a boundary vertex would slide off a flat patch
 ///    (corner, crease, crack rim). With shape_tolerance > 0 (dimensionless): a boundary face
-///    through the moved vertex would leave its plane by more than shape_tolerance times its
-///    longest edge (the survivor's distance from that plane), so a short edge on a curved cut or
-///    a kinked rim may go while every face keeps its place within that tolerance.
+///    through the moved vertex would leave its plane by more than shape_tolerance times the
+///    larger of its longest edge and length_floor (the survivor's distance from that plane), so a
+///    short edge on a curved cut or a kinked rim may go while every face keeps its place within
+///    that tolerance.
+///    Also kBoundary, whatever the tolerance: the moved vertex lies on a crack front (see
+///    foldNeighbours) and either the front ends or branches there, or the survivor is not its
+///    neighbour along the front, or the front would shift by more than max(shape_tolerance, 1e-6)
+///    times the larger of the new front edge and length_floor. The walls of a cut lie on each
+///    other in rest positions, so the plane and volume measures cannot see a front vertex moving
+///    up a wall: that would close the crack behind it.
 ///  - kQuality: worst_after < worst_before (rest positions, Q = 3 r_in / R_circ).
 /// Throws std::invalid_argument when ab is not an edge of live tets.
-CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance = 0.0);
+CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance = 0.0,
+                            double length_floor = 0.0);
 
 /// Collapses edge ab if checkCollapse accepts it: TetMesh::mergeVertices(removed, survivor,
 /// record), so the survivor keeps its own rest and current positions.
@@ -68,6 +97,6 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tole
 /// Outputs: true when collapsed; false (mesh and record unchanged) when refused; *check (if
 /// given) the decision either way.
 bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record, CollapseCheck* check = nullptr,
-                  double shape_tolerance = 0.0);
+                  double shape_tolerance = 0.0, double length_floor = 0.0);
 
 }  // namespace tissue_cut

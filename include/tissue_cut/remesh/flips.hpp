@@ -48,13 +48,15 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
                 const std::function<bool(int, int)>& may_join = nullptr);
 
 /// Inputs: mesh; a, b the ends of a boundary edge held by exactly two tets, abcx and abdx (abc and
-/// abd its boundary faces, abx the face between the tets); shape_tolerance as for checkCollapse.
+/// abd its boundary faces, abx the face between the tets); shape_tolerance and length_floor as for
+/// checkCollapse.
 /// Output: the 2-2 flip to the tets over the other diagonal cd (cdax and cdbx) when d lies within
-/// shape_tolerance times the longest edge of abc from abc's plane (and c from abd's), cd is no
-/// edge yet, both new tets are sound in rest and current positions and the worst rest Q rises by
-/// at least min_gain; else returns false. volume_change is the rest volume the flip adds.
+/// shape_tolerance times the larger of abc's longest edge and length_floor from abc's plane (and c
+/// from abd's), abc and abd face the same way (not folded onto each other, as at a crack front),
+/// cd is no edge yet, both new tets are sound in rest and current positions and the worst rest Q
+/// rises by at least min_gain; else returns false. volume_change is the rest volume the flip adds.
 bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double min_gain,
-            FlipCandidate* out);
+            FlipCandidate* out, double length_floor = 0.0);
 
 /// Does the flip: TetMesh::replaceTets(removed, added) with every added tet new (added_from -1:
 /// the element is re-made, its springs and masses are rebuilt from it). Returns the new tet ids.

@@ -93,10 +93,12 @@ bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(in
   for (const auto& edge : kTetEdge) {
     const int a = tv[edge[0]], b = tv[edge[1]];
     if (alreadyRefused(a, b)) continue;  // nothing changed around it since it was refused
-    CollapseCheck check = checkCollapse(*mesh_, a, b, shape_tolerance_);
+    CollapseCheck check = checkCollapse(*mesh_, a, b, shape_tolerance_, length_floor_);
     if (check.refusal == CollapseRefusal::kNone && shape_tolerance_ > 0.0 &&
         std::abs(volume_changed_ + check.volume_change) > volume_budget_)
       check.refusal = CollapseRefusal::kBoundary;  // the rest volume would drift too far
+    if (check.refusal == CollapseRefusal::kNone && !ghostsKept(check.removed, check.survivor))
+      check.refusal = CollapseRefusal::kBoundary;  // the surface would drift from the cut's
     switch (check.refusal) {
       case CollapseRefusal::kLink:
         ++counts_.rejected_link;
@@ -125,6 +127,7 @@ bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(in
     }
   }
   if (best.removed < 0) return false;
+  moveGhosts(best.removed, best.survivor);
   ChangeRecord local;
   mesh_->mergeVertices(best.removed, best.survivor, &local);
   if (shape_tolerance_ > 0.0) volume_changed_ += best.volume_change;
@@ -155,13 +158,15 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
     if (candidate.volume_change != 0.0 &&
         std::abs(volume_changed_ + candidate.volume_change) > volume_budget_)
       return;  // a 2-2 flip of a slightly bent pair: within the collapses' volume budget
+    if (candidate.volume_change != 0.0 && !ghostsKept(candidate)) return;
     if (!found || candidate.worst_after > best.worst_after) best = candidate;
     found = true;
   };
   for (int f = 0; f < 4; ++f) consider(flip23(*mesh_, t, f, kMinFlipGain, &candidate, may_join_));
   for (const auto& edge : kTetEdge) {
     consider(removeEdge(*mesh_, tv[edge[0]], tv[edge[1]], kMinFlipGain, &candidate, may_join_));
-    consider(flip22(*mesh_, tv[edge[0]], tv[edge[1]], shape_tolerance_, kMinFlipGain, &candidate));
+    consider(flip22(*mesh_, tv[edge[0]], tv[edge[1]], shape_tolerance_, kMinFlipGain, &candidate,
+                    length_floor_));
   }
   if (!found) return false;
   ChangeRecord local;
@@ -176,6 +181,125 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
     for (int v : mesh_->tet(a)) verts.insert(v);
   for (int v : verts) touched(v, created_by_cut);
   return true;
+}
+
+void CollapseQueue::boundaryFacesAround(int v, int removed, int survivor, const FlipCandidate* flip,
+                                        std::vector<Triangle>* out) const {
+  // v's boundary faces as they will be: `removed` on `survivor` (faces through both go), or the
+  // flip's tets replaced by its new ones.
+  auto add = [&](const TetVerts& tv, int f) {
+    std::array<int, 3> c{tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]};
+    bool had_removed = false, had_survivor = false;
+    for (int& x : c) {
+      if (x == removed) {
+        x = survivor;
+        had_removed = true;
+      } else if (x == survivor) {
+        had_survivor = true;
+      }
+    }
+    if (had_removed && had_survivor) return;
+    out->push_back({mesh_->rest(c[0]), mesh_->rest(c[1]), mesh_->rest(c[2])});
+  };
+  for (int t : mesh_->vertexTets(v)) {
+    if (flip && std::find(flip->removed.begin(), flip->removed.end(), t) != flip->removed.end())
+      continue;
+    for (int f = 0; f < 4; ++f)
+      if (mesh_->tet(t)[f] != v && mesh_->neighbor(t, f) < 0) add(mesh_->tet(t), f);
+  }
+  if (!flip) return;
+  // The flip's new tets: their faces not shared between them are the ones the removed tets
+  // had outside; those the removed tets had on the boundary are the boundary faces now.
+  for (const TetVerts& tv : flip->added) {
+    if (std::find(tv.begin(), tv.end(), v) == tv.end()) continue;
+    for (int f = 0; f < 4; ++f) {
+      if (tv[f] == v) continue;
+      const std::array<int, 3> face{tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]};
+      bool shared = false, outside = false;
+      for (const TetVerts& other : flip->added)
+        if (&other != &tv && std::all_of(face.begin(), face.end(), [&](int x) {
+              return std::find(other.begin(), other.end(), x) != other.end();
+            }))
+          shared = true;
+      if (shared) continue;
+      // Inside the body when some tet outside the flip has this face.
+      for (int t : mesh_->vertexTets(face[0]))
+        if (std::find(flip->removed.begin(), flip->removed.end(), t) == flip->removed.end() &&
+            std::all_of(face.begin(), face.end(), [&](int x) {
+              const TetVerts& w = mesh_->tet(t);
+              return std::find(w.begin(), w.end(), x) != w.end();
+            }))
+          outside = true;
+      if (!outside) add(tv, f);
+    }
+  }
+}
+
+bool CollapseQueue::ghostsNear(const std::vector<Vec3>& points,
+                               const std::vector<Triangle>& faces) const {
+  const double limit = shape_tolerance_ * length_floor_;
+  for (const Vec3& p : points) {
+    bool near = false;
+    for (const Triangle& f : faces)
+      if (pointTriangleDistance(p, f[0], f[1], f[2]) <= limit) {
+        near = true;
+        break;
+      }
+    if (!near) return false;
+  }
+  return true;
+}
+
+bool CollapseQueue::ghostsKept(int removed, int survivor) const {
+  if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0 || !isBoundaryVertex(*mesh_, removed))
+    return true;
+  std::vector<Triangle> faces;
+  boundaryFacesAround(removed, removed, survivor, nullptr, &faces);
+  boundaryFacesAround(survivor, removed, survivor, nullptr, &faces);
+  std::vector<Vec3> points{mesh_->rest(removed)};
+  for (int v : {removed, survivor}) {
+    const auto it = ghosts_.find(v);
+    if (it != ghosts_.end()) points.insert(points.end(), it->second.begin(), it->second.end());
+  }
+  if (!ghostsNear(points, faces)) return false;
+  // Neighbours whose faces through `removed` move keep their own points near their new faces.
+  for (int t : mesh_->vertexTets(removed)) {
+    for (int u : mesh_->tet(t)) {
+      if (u == removed || u == survivor) continue;
+      const auto it = ghosts_.find(u);
+      if (it == ghosts_.end()) continue;
+      std::vector<Triangle> around;
+      boundaryFacesAround(u, removed, survivor, nullptr, &around);
+      if (!ghostsNear(it->second, around)) return false;
+    }
+  }
+  return true;
+}
+
+bool CollapseQueue::ghostsKept(const FlipCandidate& flip) const {
+  if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0) return true;
+  std::set<int> verts;
+  for (int t : flip.removed)
+    for (int v : mesh_->tet(t)) verts.insert(v);
+  for (int v : verts) {
+    const auto it = ghosts_.find(v);
+    if (it == ghosts_.end()) continue;
+    std::vector<Triangle> around;
+    boundaryFacesAround(v, -1, -1, &flip, &around);
+    if (!ghostsNear(it->second, around)) return false;
+  }
+  return true;
+}
+
+void CollapseQueue::moveGhosts(int removed, int survivor) {
+  if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0 || !isBoundaryVertex(*mesh_, removed))
+    return;
+  std::vector<Vec3>& kept = ghosts_[survivor];
+  kept.push_back(mesh_->rest(removed));
+  const auto it = ghosts_.find(removed);
+  if (it == ghosts_.end()) return;
+  kept.insert(kept.end(), it->second.begin(), it->second.end());
+  ghosts_.erase(it);
 }
 
 bool CollapseQueue::smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,

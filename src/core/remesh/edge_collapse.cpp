@@ -11,11 +11,13 @@ namespace tissue_cut {
 
 namespace {
 
+constexpr double kPi = 3.14159265358979323846;
+
 bool contains(const TetVerts& tv, int v) { return std::find(tv.begin(), tv.end(), v) != tv.end(); }
 
 // How far the boundary faces that move with `removed` would leave their planes, relative to each
 // face's longest edge.
-double boundaryDeviation(const TetMesh& mesh, int removed, int survivor) {
+double boundaryDeviation(const TetMesh& mesh, int removed, int survivor, double length_floor) {
   const Vec3 move = mesh.rest(survivor) - mesh.rest(removed);
   double worst = 0.0;
   for (int t : mesh.vertexTets(removed)) {
@@ -26,16 +28,39 @@ double boundaryDeviation(const TetMesh& mesh, int removed, int survivor) {
       if (mesh.neighbor(t, f) >= 0 || tv[f] == removed) continue;
       worst = std::max(worst, planeDeviation(mesh.rest(tv[kTetFace[f][0]]),
                                              mesh.rest(tv[kTetFace[f][1]]),
-                                             mesh.rest(tv[kTetFace[f][2]]), move));
+                                             mesh.rest(tv[kTetFace[f][2]]), move,
+                                             length_floor));
       if (std::isinf(worst)) return worst;
     }
   }
   return worst;
 }
 
+double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (x - (a + t * d)).norm();
+}
+
+// Whether `removed` may move onto `survivor` as far as the crack fronts through `removed` go:
+// a front vertex only along its front, which then shifts by at most the tolerance.
+bool frontKept(const TetMesh& mesh, int removed, int survivor, double shape_tolerance,
+               double length_floor) {
+  const std::vector<int> folds = foldNeighbours(mesh, removed);
+  if (folds.empty()) return true;
+  if (folds.size() != 2) return false;  // where a front ends or fronts meet: a corner
+  const int other = folds[0] == survivor ? folds[1] : folds[1] == survivor ? folds[0] : -1;
+  if (other < 0) return false;  // off the front: the crack would close behind it
+  const Vec3 &p = mesh.rest(removed), &s = mesh.rest(survivor), &o = mesh.rest(other);
+  const double tolerance = std::max(shape_tolerance, 1e-6);
+  return distanceToSegment(p, s, o) <= tolerance * std::max((s - o).norm(), length_floor);
+}
+
 // The checks for moving `removed` onto `survivor`, in the order the header lists them.
 CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link_holds,
-                       bool a_boundary, bool b_boundary, int a, int b, double shape_tolerance) {
+                       bool a_boundary, bool b_boundary, int a, int b, double shape_tolerance,
+                       double length_floor) {
   CollapseCheck check;
   check.removed = removed;
   check.survivor = survivor;
@@ -71,6 +96,10 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
         signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
   }
   check.volume_change = volume_after - volume_before;
+  if (!frontKept(mesh, check.removed, check.survivor, shape_tolerance, length_floor)) {
+    check.refusal = CollapseRefusal::kBoundary;
+    return check;
+  }
   if (shape_tolerance <= 0.0) {
     // Inside the body the star keeps its volume exactly; a change means the moved vertex was on
     // a curved or creased part of the boundary (a corner, the crack's rim) and the shape would
@@ -79,7 +108,8 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
       check.refusal = CollapseRefusal::kBoundary;
       return check;
     }
-  } else if (boundaryDeviation(mesh, check.removed, check.survivor) > shape_tolerance) {
+  } else if (boundaryDeviation(mesh, check.removed, check.survivor, length_floor) >
+             shape_tolerance) {
     check.refusal = CollapseRefusal::kBoundary;
     return check;
   }
@@ -104,15 +134,92 @@ bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv) {
                     mesh.current(tv[3]));
 }
 
-double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d) {
+double pointTriangleDistance(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c) {
+  // The closest point by the Voronoi regions of the corners, edges and face (Ericson, Real-Time
+  // Collision Detection, 5.1.5).
+  const Vec3 ab = b - a, ac = c - a, ax = x - a;
+  const double d1 = ab.dot(ax), d2 = ac.dot(ax);
+  if (d1 <= 0 && d2 <= 0) return ax.norm();
+  const Vec3 bx = x - b;
+  const double d3 = ab.dot(bx), d4 = ac.dot(bx);
+  if (d3 >= 0 && d4 <= d3) return bx.norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (x - (a + d1 / (d1 - d3) * ab)).norm();
+  const Vec3 cx = x - c;
+  const double d5 = ab.dot(cx), d6 = ac.dot(cx);
+  if (d6 >= 0 && d5 <= d6) return cx.norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (x - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)
+    return (x - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  const double sum = va + vb + vc;
+  if (!(sum > 0)) return std::min({ax.norm(), bx.norm(), cx.norm()});  // degenerate triangle
+  return (x - (a + ab * (vb / sum) + ac * (vc / sum))).norm();
+}
+
+// The sum of the dihedral angles at edge uv of the tets around it (rest positions): the angle the
+// material fills around the edge. Near 2 pi at a crack front, near 0 along a knife edge (a
+// sliver's edge on the boundary), whose two faces also turn back on each other.
+static double materialAngle(const TetMesh& mesh, int u, int v) {
+  const Vec3 &p = mesh.rest(u), axis = (mesh.rest(v) - p).normalized();
+  double sum = 0.0;
+  for (int t : mesh.edgeTets(u, v)) {
+    Vec3 side[2];
+    int k = 0;
+    for (int w : mesh.tet(t))
+      if (w != u && w != v && k < 2) {
+        const Vec3 d = mesh.rest(w) - p;
+        side[k++] = d - axis * axis.dot(d);
+      }
+    sum += std::atan2(side[0].cross(side[1]).norm(), side[0].dot(side[1]));
+  }
+  return sum;
+}
+
+std::vector<int> foldNeighbours(const TetMesh& mesh, int v) {
+  // Each boundary face at v gives its outward unit normal to its two edges through v.
+  std::vector<std::pair<int, Vec3>> edge_normals;
+  for (int t : mesh.vertexTets(v)) {
+    const TetVerts& tv = mesh.tet(t);
+    for (int f = 0; f < 4; ++f) {
+      if (tv[f] == v || mesh.neighbor(t, f) >= 0) continue;
+      const Vec3& a = mesh.rest(tv[kTetFace[f][0]]);
+      Vec3 n = (mesh.rest(tv[kTetFace[f][1]]) - a).cross(mesh.rest(tv[kTetFace[f][2]]) - a);
+      if (n.dot(mesh.rest(tv[f]) - a) > 0) n = -n;  // away from the tet's own fourth vertex
+      const double len = n.norm();
+      if (!(len > 0)) continue;
+      n /= len;
+      for (int k = 0; k < 3; ++k) {
+        const int u = tv[kTetFace[f][k]];
+        if (u != v) edge_normals.emplace_back(u, n);
+      }
+    }
+  }
+  std::vector<int> folds;
+  for (std::size_t i = 0; i < edge_normals.size(); ++i)
+    for (std::size_t j = i + 1; j < edge_normals.size(); ++j)
+      if (edge_normals[i].first == edge_normals[j].first &&
+          edge_normals[i].second.dot(edge_normals[j].second) < kFoldCosine &&
+          std::find(folds.begin(), folds.end(), edge_normals[i].first) == folds.end() &&
+          materialAngle(mesh, v, edge_normals[i].first) > kPi)
+        folds.push_back(edge_normals[i].first);
+  std::sort(folds.begin(), folds.end());
+  return folds;
+}
+
+double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d,
+                      double length_floor) {
   const Vec3 n = (q - p).cross(r - p);
   const double len = n.norm();
   if (!(len > 0)) return std::numeric_limits<double>::infinity();
-  const double longest = std::max({(p - q).norm(), (q - r).norm(), (r - p).norm()});
+  const double longest =
+      std::max({(p - q).norm(), (q - r).norm(), (r - p).norm(), length_floor});
   return std::abs(n.dot(d)) / len / longest;
 }
 
-CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance) {
+CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance,
+                            double length_floor) {
   // Throws for a non-edge before anything else is read.
   const bool link_holds = linkConditionHolds(mesh, a, b);
   const bool a_boundary = isBoundaryVertex(mesh, a), b_boundary = isBoundaryVertex(mesh, b);
@@ -124,7 +231,8 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tole
     survivor = a_boundary ? a : b;
   }
   const CollapseCheck first =
-      evaluate(mesh, removed, survivor, link_holds, a_boundary, b_boundary, a, b, shape_tolerance);
+      evaluate(mesh, removed, survivor, link_holds, a_boundary, b_boundary, a, b, shape_tolerance,
+               length_floor);
   // When the preferred way would flatten a tet, worsen the star or bend the boundary, the other
   // way round may not (only where both ends are alike: a boundary vertex never leaves it).
   const bool geometric = first.refusal == CollapseRefusal::kInversion ||
@@ -132,13 +240,14 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tole
                          first.refusal == CollapseRefusal::kBoundary;
   if (!geometric || a_boundary != b_boundary) return first;
   const CollapseCheck second =
-      evaluate(mesh, survivor, removed, link_holds, a_boundary, b_boundary, a, b, shape_tolerance);
+      evaluate(mesh, survivor, removed, link_holds, a_boundary, b_boundary, a, b, shape_tolerance,
+               length_floor);
   return second.refusal == CollapseRefusal::kNone ? second : first;
 }
 
 bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record, CollapseCheck* check,
-                  double shape_tolerance) {
-  const CollapseCheck decided = checkCollapse(*mesh, a, b, shape_tolerance);
+                  double shape_tolerance, double length_floor) {
+  const CollapseCheck decided = checkCollapse(*mesh, a, b, shape_tolerance, length_floor);
   if (check) *check = decided;
   if (decided.refusal != CollapseRefusal::kNone) return false;
   mesh->mergeVertices(decided.removed, decided.survivor, record);

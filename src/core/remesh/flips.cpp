@@ -143,7 +143,7 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
 }
 
 bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double min_gain,
-            FlipCandidate* out) {
+            FlipCandidate* out, double length_floor) {
   const std::vector<int> pair_tets = mesh.edgeTets(a, b);
   if (pair_tets.size() != 2) return false;
   // The apex x both tets share across their common face abx, and each tet's own vertex c, d.
@@ -166,9 +166,16 @@ bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double mi
   }
   // Flat enough: each of c, d near the other triangle's plane.
   const Vec3 &pa = mesh.rest(a), &pb = mesh.rest(b), &pc = mesh.rest(c), &pd = mesh.rest(d);
-  if (planeDeviation(pa, pb, pc, pd - pa) > shape_tolerance ||
-      planeDeviation(pa, pb, pd, pc - pa) > shape_tolerance)
+  if (planeDeviation(pa, pb, pc, pd - pa, length_floor) > shape_tolerance ||
+      planeDeviation(pa, pb, pd, pc - pa, length_floor) > shape_tolerance)
     return false;
+  // Facing the same way: abc and abd folded onto each other (a crack front, both walls of a cut
+  // lying on each other) are "in one plane" too, and cd would close the crack.
+  const Vec3& px = mesh.rest(x);
+  Vec3 nc = (pb - pa).cross(pc - pa), nd = (pb - pa).cross(pd - pa);
+  if (nc.dot(px - pa) > 0) nc = -nc;
+  if (nd.dot(px - pa) > 0) nd = -nd;
+  if (!(nc.dot(nd) > 0)) return false;
   FlipCandidate cand;
   cand.removed = pair_tets;
   cand.worst_before = std::min(restQuality(mesh, pair_tets[0]), restQuality(mesh, pair_tets[1]));
