@@ -21,7 +21,9 @@ struct MassSpringParams {
   bool fixed_max_side = false;    ///< fix the vertices near the max (true) or min side
   double fixed_band = 0.001;      ///< [m]; negative: fix nothing
   int cg_max_iterations = 100;
-  double cg_tolerance = 1e-6;  ///< relative residual
+  /// CG stops at this residual relative to the right-hand side or to the weight's impulse over
+  /// the step (m g dt of the free vertices), whichever is larger.
+  double cg_tolerance = 1e-6;
   double max_speed = 50.0;     ///< a faster vertex means the step blew up [m/s]
 };
 
@@ -84,6 +86,7 @@ class MassSpring {
   std::vector<Spring> springs_;
   std::unordered_map<long long, int> spring_of_;  // edge key -> index
   std::vector<Vec3> warm_;                        // last velocity change, per vertex
+  std::vector<Vec3> warm_prev_;                   // the one before (warm start by extrapolation)
   std::vector<TetVerts> tet_copy_;                // each live tet's vertices, from the records
   // The implicit step's work space, kept between steps so that a tick allocates nothing.
   std::vector<Block> blocks_;  // per-spring h^2-scaled stiffness blocks of this step
