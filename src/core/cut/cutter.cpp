@@ -1,6 +1,7 @@
 #include "tissue_cut/cut/cutter.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -701,9 +702,36 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   swept_lo_ = lo;
   swept_hi_ = hi;
   swept_valid_ = true;
+  // Only a tet reaching into the snap band of a swept triangle's plane can hold a vertex that
+  // snaps onto the sweep (pointNearTriangle: within the band of the plane) or an edge that
+  // crosses it (ends on both sides of the plane); the box around a long, tilted blade holds many
+  // more. The others are left out before the per-vertex and per-edge work.
+  const double band =
+      std::max(snap_distance_, wound_snap_distance_) * (1.0 + 1e-9) + 1e-12 * mean_edge_;
+  std::array<Vec3, 2> unit{Vec3::Zero(), Vec3::Zero()};
+  for (int k = 0; k < 2; ++k) {
+    const Vec3 n = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
+    if (n.norm() > 0) unit[k] = n.normalized();
+  }
+  auto reachesSweep = [&](const TetVerts& tv) {
+    for (int k = 0; k < 2; ++k) {
+      if (unit[k].isZero()) continue;
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (int v : tv) {
+        const double d = unit[k].dot(mesh_->current(v) - tris[k][0]);
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+      }
+      if (lo <= band && hi >= -band) return true;
+    }
+    return false;
+  };
   std::vector<TetVerts> corners;
   corners.reserve(near.size());
-  for (const Coarse& c : near) corners.push_back(cornersOf(c));
+  for (const Coarse& c : near) {
+    const TetVerts tv = cornersOf(c);
+    if (reachesSweep(tv)) corners.push_back(tv);
+  }
   Vec3 normal = (tris[0][1] - tris[0][0]).cross(tris[0][2] - tris[0][0]);
   if (normal.norm() <= tiny) normal = (tris[1][1] - tris[1][0]).cross(tris[1][2] - tris[1][0]);
   normal.normalize();
