@@ -15,8 +15,8 @@
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/mesh/topology.hpp"
-#include "tissue_cut/remesh/edge_collapse.hpp"
 #include "tissue_cut/tissue.hpp"
 
 using namespace tissue_cut;

@@ -148,4 +148,11 @@ class TetMesh {
 /// Signed volume of the tet (a, b, c, d): positive when d sees (a, b, c) counter-clockwise [m^3].
 double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 
+/// Distance [m] from x to the segment ab (to a when the segment is a point).
+double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b);
+
+/// Distance [m] from x to the closest point of the triangle abc (its interior, an edge or a
+/// corner).
+double pointTriangleDistance(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c);
+
 }  // namespace tissue_cut

@@ -120,7 +120,6 @@ class CollapseQueue {
   bool ghostsKept(int removed, int survivor) const;
   bool ghostsKept(const FlipCandidate& flip) const;
   void moveGhosts(int removed, int survivor);
-  void surfaceShifted(const std::vector<int>& verts, double total);
   bool smoothing_ = true, flips_ = true;
   double shape_tolerance_ = 0.0, volume_budget_ = 0.0, volume_changed_ = 0.0, length_floor_ = 0.0;
   std::function<bool(int)> pinned_;

@@ -44,10 +44,6 @@ bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv);
 double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d,
                       double length_floor = 0.0);
 
-/// Inputs: a point x and a triangle abc. Output: the distance [m] from x to the closest point of
-/// the triangle (its interior, an edge or a corner).
-double pointTriangleDistance(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c);
-
 /// Boundary edges whose two boundary faces turn back on each other (outward normals at more than
 /// about 154 degrees: cosine below this) with the material wrapped around the edge (the dihedral
 /// angles of its tets add up to more than pi) are folds: a crack front, where both walls of a cut

@@ -1,10 +1,10 @@
 #include "tissue_cut/cut/cutter.hpp"
 
 #include <algorithm>
-#include <limits>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <cstdlib>
 #include <map>
 #include <numeric>
@@ -18,13 +18,6 @@ std::array<int, 3> sortedFace(int a, int b, int c) {
   std::array<int, 3> k{a, b, c};
   std::sort(k.begin(), k.end());
   return k;
-}
-
-double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
-  const Vec3 d = b - a;
-  const double len2 = d.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
-  return (x - (a + t * d)).norm();
 }
 
 int localIndex(const TetVerts& t, int v) {
@@ -756,12 +749,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   if (stroke_start_) front.push_back({from.base, from.tip});
   const double front_gap = frontShift();
   auto nearFront = [&](const Vec3& x) {
-    for (const auto& seg : front) {
-      const Vec3 d = seg[1] - seg[0];
-      const double len2 = d.squaredNorm();
-      const double t = len2 > 0 ? std::clamp((x - seg[0]).dot(d) / len2, 0.0, 1.0) : 0.0;
-      if ((x - (seg[0] + t * d)).norm() < front_gap) return true;
-    }
+    for (const auto& seg : front)
+      if (distanceToSegment(x, seg[0], seg[1]) < front_gap) return true;
     return false;
   };
   for (const auto& [a, b] : edges) {

@@ -51,6 +51,37 @@ double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) 
   return (b - a).dot((c - a).cross(d - a)) / 6.0;
 }
 
+double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (x - (a + t * d)).norm();
+}
+
+double pointTriangleDistance(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c) {
+  // The closest point by the Voronoi regions of the corners, edges and face (Ericson, Real-Time
+  // Collision Detection, 5.1.5).
+  const Vec3 ab = b - a, ac = c - a, ax = x - a;
+  const double d1 = ab.dot(ax), d2 = ac.dot(ax);
+  if (d1 <= 0 && d2 <= 0) return ax.norm();
+  const Vec3 bx = x - b;
+  const double d3 = ab.dot(bx), d4 = ac.dot(bx);
+  if (d3 >= 0 && d4 <= d3) return bx.norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (x - (a + d1 / (d1 - d3) * ab)).norm();
+  const Vec3 cx = x - c;
+  const double d5 = ab.dot(cx), d6 = ac.dot(cx);
+  if (d6 >= 0 && d5 <= d6) return cx.norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (x - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)
+    return (x - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  const double sum = va + vb + vc;
+  if (!(sum > 0)) return std::min({ax.norm(), bx.norm(), cx.norm()});  // degenerate triangle
+  return (x - (a + ab * (vb / sum) + ac * (vc / sum))).norm();
+}
+
 bool ChangeRecord::empty() const {
   return removed_tets.empty() && added_tets.empty() && added_vertices.empty() &&
          removed_vertices.empty();

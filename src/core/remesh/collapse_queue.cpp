@@ -7,7 +7,6 @@
 #include <set>
 
 #include "tissue_cut/mesh/quality.hpp"
-#include "tissue_cut/remesh/flips.hpp"
 #include "tissue_cut/remesh/vertex_smoothing.hpp"
 
 namespace tissue_cut {
@@ -32,6 +31,7 @@ void CollapseQueue::clear() {
   refused_.clear();
   queued_.clear();
   volume_changed_ = 0.0;
+  ghosts_.clear();
   counts_ = CollapseCounts{};
 }
 

@@ -36,11 +36,23 @@ double boundaryDeviation(const TetMesh& mesh, int removed, int survivor, double 
   return worst;
 }
 
-double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
-  const Vec3 d = b - a;
-  const double len2 = d.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
-  return (x - (a + t * d)).norm();
+// The sum of the dihedral angles at edge uv of the tets around it (rest positions): the angle the
+// material fills around the edge. Near 2 pi at a crack front, near 0 along a knife edge (a
+// sliver's edge on the boundary), whose two faces also turn back on each other.
+double materialAngle(const TetMesh& mesh, int u, int v) {
+  const Vec3 &p = mesh.rest(u), axis = (mesh.rest(v) - p).normalized();
+  double sum = 0.0;
+  for (int t : mesh.edgeTets(u, v)) {
+    Vec3 side[2];
+    int k = 0;
+    for (int w : mesh.tet(t))
+      if (w != u && w != v && k < 2) {
+        const Vec3 d = mesh.rest(w) - p;
+        side[k++] = d - axis * axis.dot(d);
+      }
+    sum += std::atan2(side[0].cross(side[1]).norm(), side[0].dot(side[1]));
+  }
+  return sum;
 }
 
 // Whether `removed` may move onto `survivor` as far as the crack fronts through `removed` go:
@@ -132,49 +144,6 @@ bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv) {
   return isSoundTet(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) &&
          isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
                     mesh.current(tv[3]));
-}
-
-double pointTriangleDistance(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c) {
-  // The closest point by the Voronoi regions of the corners, edges and face (Ericson, Real-Time
-  // Collision Detection, 5.1.5).
-  const Vec3 ab = b - a, ac = c - a, ax = x - a;
-  const double d1 = ab.dot(ax), d2 = ac.dot(ax);
-  if (d1 <= 0 && d2 <= 0) return ax.norm();
-  const Vec3 bx = x - b;
-  const double d3 = ab.dot(bx), d4 = ac.dot(bx);
-  if (d3 >= 0 && d4 <= d3) return bx.norm();
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (x - (a + d1 / (d1 - d3) * ab)).norm();
-  const Vec3 cx = x - c;
-  const double d5 = ab.dot(cx), d6 = ac.dot(cx);
-  if (d6 >= 0 && d5 <= d6) return cx.norm();
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (x - (a + d2 / (d2 - d6) * ac)).norm();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)
-    return (x - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
-  const double sum = va + vb + vc;
-  if (!(sum > 0)) return std::min({ax.norm(), bx.norm(), cx.norm()});  // degenerate triangle
-  return (x - (a + ab * (vb / sum) + ac * (vc / sum))).norm();
-}
-
-// The sum of the dihedral angles at edge uv of the tets around it (rest positions): the angle the
-// material fills around the edge. Near 2 pi at a crack front, near 0 along a knife edge (a
-// sliver's edge on the boundary), whose two faces also turn back on each other.
-static double materialAngle(const TetMesh& mesh, int u, int v) {
-  const Vec3 &p = mesh.rest(u), axis = (mesh.rest(v) - p).normalized();
-  double sum = 0.0;
-  for (int t : mesh.edgeTets(u, v)) {
-    Vec3 side[2];
-    int k = 0;
-    for (int w : mesh.tet(t))
-      if (w != u && w != v && k < 2) {
-        const Vec3 d = mesh.rest(w) - p;
-        side[k++] = d - axis * axis.dot(d);
-      }
-    sum += std::atan2(side[0].cross(side[1]).norm(), side[0].dot(side[1]));
-  }
-  return sum;
 }
 
 std::vector<int> foldNeighbours(const TetMesh& mesh, int v) {
