@@ -72,6 +72,7 @@ class Tissue {
   std::unique_ptr<Cutter> cutter_;
   std::unique_ptr<MassSpring> physics_;
   std::unique_ptr<CollapseQueue> collapse_;
+  long long busy_epoch_ = -1;  // the cutter's state epoch when the queue last looked at it
   std::vector<unsigned char> cut_region_;
   TickTimes tick_times_;
   double initial_volume_ = 0.0;

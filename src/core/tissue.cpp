@@ -76,6 +76,7 @@ void Tissue::reset() {
   // back and forth with physics re-cut 5,100 tets instead of about 400).
   collapse_->setFlips(true, [this](int u, int v) { return cutter_->mayJoin(u, v); });
   cut_region_.assign(mesh_.tetSlots(), 0);
+  busy_epoch_ = -1;
   tick_times_.clear();
   initial_volume_ = mesh_.restVolume();
 }
@@ -131,7 +132,11 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   collapse_->queueFrom(change, created);
   if (config_.collapse.enabled) {
     ChangeRecord collapsed;
-    collapse_->process([this](int v) { return cutter_->isBusy(v); }, created, &collapsed);
+    // Tets waiting for the cutter are looked at again only when its state changed.
+    const long long epoch = cutter_->stateEpoch();
+    collapse_->process([this](int v) { return cutter_->isBusy(v); }, created, &collapsed,
+                       epoch != busy_epoch_);
+    busy_epoch_ = epoch;
     if (!collapsed.empty()) {
       applyChange(collapsed);
       cutter_->follow(collapsed);

@@ -2,6 +2,7 @@
 // never touching tets the blade is still inside.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "tissue_cut/cut/scalpel_path.hpp"
@@ -110,4 +111,44 @@ TEST(Collapse, LeavesTheTetsAroundTheBladeAlone) {
   }
   EXPECT_TRUE(tissue.cutter().hasPending());
   EXPECT_GT(tissue.statistics().collapse.collapsed_edges, 0);
+}
+
+// A tet waiting for a busy neighbourhood is looked at again only when the caller says busy()
+// may answer otherwise; then it is worked as usual.
+TEST(Collapse, WaitingTetsWakeWhenTheBusyStateChanges) {
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  // Split tet 100 at a point just off one face: four tets, three of them slivers.
+  ChangeRecord change;
+  const TetVerts c = mesh.tet(100);
+  const int m = mesh.addVertex({{c[0], 0.32}, {c[1], 0.33}, {c[2], 0.33}, {c[3], 0.02}}, &change);
+  std::vector<TetVerts> add;
+  for (int f = 0; f < 4; ++f) {
+    TetVerts t = c;
+    t[f] = m;
+    add.push_back(t);
+  }
+  mesh.replaceTets({100}, add, &change);
+  CollapseQueue queue(&mesh, 0.3, 0.0);
+  auto created = [&](int t) {
+    return std::find(change.added_tets.begin(), change.added_tets.end(), t) !=
+           change.added_tets.end();
+  };
+  queue.queueFrom(change, created);
+  const int queued = queue.pending();
+  ASSERT_GT(queued, 0);
+  bool blade_near = true;
+  auto busy = [&](int v) { return blade_near && v == m; };
+  ChangeRecord out;
+  queue.process(busy, created, &out, true);
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(queue.pending(), queued);
+  blade_near = false;
+  queue.process(busy, created, &out, false);  // told nothing changed: the tets keep waiting
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(queue.pending(), queued);
+  queue.process(busy, created, &out, true);
+  EXPECT_FALSE(out.empty()) << "the woken tets were worked";
+  EXPECT_LT(queue.pending(), queued);
+  EXPECT_EQ(mesh.validate(), "");
 }

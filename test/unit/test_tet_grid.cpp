@@ -93,3 +93,69 @@ TEST(TetGrid, ReplacedTetsAreFoundAfterAnUpdate) {
   for (int t : change.added_tets)
     EXPECT_TRUE(std::binary_search(found.begin(), found.end(), t)) << "new tet " << t;
 }
+
+// What the cutter keeps between ticks: the candidates of a box hold every tet a query of a box
+// inside it returns, after drift below the rebuild limit too; a tet filed later joins them when
+// filedNear says so, and a query filtered from them equals the grid's.
+TEST(TetGrid, CandidatesHoldEveryQueryInsideTheirBox) {
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  const double margin = 0.006;
+  TetGrid grid;
+  grid.build(mesh, 0.012, margin);
+  const Vec3 big_lo(-0.03, -0.02, 0.0), big_hi(0.03, 0.02, 0.03);
+  std::vector<int> kept;
+  grid.candidates(mesh, big_lo, big_hi, &kept);
+  ASSERT_TRUE(std::is_sorted(kept.begin(), kept.end()));
+  ASSERT_EQ(std::adjacent_find(kept.begin(), kept.end()), kept.end()) << "each tet once";
+  // Far fewer than all: the candidates are local.
+  EXPECT_LT(kept.size(), static_cast<std::size_t>(mesh.numTets()));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), in(0.0, 1.0);
+  for (int v = 0; v < mesh.vertexSlots(); ++v) {
+    Vec3 d(unit(rng), unit(rng), unit(rng));
+    d *= 0.49 * margin / std::max(d.norm(), 1e-12);
+    mesh.current(v) += d;
+  }
+  ASSERT_FALSE(grid.needsRebuild(mesh));
+  // Split a tet inside the box; its pieces are filed and join the candidates.
+  ChangeRecord change;
+  const std::vector<int> inside = grid.query(mesh, Vec3::Zero(), Vec3::Zero());
+  ASSERT_FALSE(inside.empty());
+  const TetVerts c = mesh.tet(inside.front());
+  const int m = mesh.addVertex({{c[0], 0.25}, {c[1], 0.25}, {c[2], 0.25}, {c[3], 0.25}}, &change);
+  std::vector<TetVerts> add;
+  for (int f = 0; f < 4; ++f) {
+    TetVerts t = c;
+    t[f] = m;
+    add.push_back(t);
+  }
+  mesh.replaceTets({inside.front()}, add, &change);
+  grid.update(mesh, change);
+  int joined = 0;
+  for (int t : change.added_tets)
+    if (grid.filedNear(mesh, t, big_lo, big_hi)) {
+      kept.insert(std::lower_bound(kept.begin(), kept.end(), t), t);
+      ++joined;
+    }
+  EXPECT_EQ(joined, 4);
+  EXPECT_FALSE(grid.filedNear(mesh, change.added_tets[0], Vec3(1, 1, 1), Vec3(2, 2, 2)));
+  kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
+  for (int k = 0; k < 200; ++k) {
+    Vec3 lo, hi;
+    for (int d = 0; d < 3; ++d) {
+      const double a = big_lo[d] + in(rng) * (big_hi[d] - big_lo[d]);
+      const double b = big_lo[d] + in(rng) * (big_hi[d] - big_lo[d]);
+      lo[d] = std::min(a, b);
+      hi[d] = std::max(a, b);
+    }
+    const std::vector<int> found = grid.query(mesh, lo, hi);
+    ASSERT_EQ(found, bruteForce(mesh, lo, hi)) << "query " << k;
+    std::vector<int> filtered;
+    for (int t : kept) {
+      if (!mesh.tetAlive(t)) continue;
+      if (std::binary_search(found.begin(), found.end(), t)) filtered.push_back(t);
+    }
+    ASSERT_EQ(filtered, found) << "query " << k << ": a tet the grid finds is not a candidate";
+  }
+}

@@ -82,6 +82,10 @@ class Cutter {
   /// an edge near such an end (see woundAround); a new edge far from any wound end would be cut.
   bool mayJoin(int u, int v) const;
   const CutCounts& counts() const { return counts_; }
+  /// Changes whenever something isBusy() or the separation of the cut depends on may have changed
+  /// (tets replaced or made pending, pending tets finished, cut faces marked or opened, vertices
+  /// deferred or split, collapses followed): between two equal values, isBusy() answers alike.
+  long long stateEpoch() const { return epoch_; }
   /// Mean rest edge length of the mesh the cutter started on [m].
   double meanEdge() const { return mean_edge_; }
   const std::unordered_set<int>& verticesOnCut() const { return on_cut_; }
@@ -133,11 +137,18 @@ class Cutter {
   bool replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids);
   void refreshGrid(const ChangeRecord& change);
+  /// The grid's query, from candidates kept while the blade stays near (see near_cache_).
+  void gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out);
 
   TetMesh* mesh_;
   CutterOptions options_;
   double snap_distance_ = 0.0, wound_snap_distance_ = 0.0, mean_edge_ = 0.0;
   TetGrid grid_;
+  // The grid's candidates around the blade (TetGrid::candidates), kept while queries stay inside
+  // [near_cache_lo_, near_cache_hi_] and grown by the tets filed since; dropped on a rebuild.
+  std::vector<int> near_cache_;
+  Vec3 near_cache_lo_ = Vec3::Zero(), near_cache_hi_ = Vec3::Zero();
+  bool near_cache_valid_ = false;
   std::optional<BladeSegment> previous_;
   Vec3 last_motion_ = Vec3::Zero();  // the blade's last move, to push a stroke's end ahead
   double frontShift() const { return 0.6 * snap_distance_; }
@@ -156,6 +167,8 @@ class Cutter {
   bool unmark(const std::array<int, 3>& face);
   std::unordered_map<int, int> marked_at_;  // vertex -> number of marked faces holding it
   CutCounts counts_;
+  long long epoch_ = 0;         // see stateEpoch()
+  long long separated_at_ = -1;  // epoch_ when separate() last started
   std::string refusal_;  // the first refused replacement of this tick
   // Scratch buffers of one tick, kept for their capacity.
   std::vector<int> near_scratch_;

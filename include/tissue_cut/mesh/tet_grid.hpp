@@ -22,6 +22,12 @@ class TetGrid {
   std::vector<int> query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi) const;
   /// The same into *out (its capacity is reused: no allocation once grown).
   void query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, std::vector<int>* out) const;
+  /// Every live tet a query of a box inside [lo, hi] could return, as long as the grid is not
+  /// updated or rebuilt in between (the filed boxes, without looking at current positions), in
+  /// increasing id order: a caller may keep these and filter them by current box instead.
+  void candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, std::vector<int>* out) const;
+  /// Whether tet t, filed just now, belongs to candidates(lo, hi).
+  bool filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) const;
   /// True when the index has gone stale: a vertex drifted more than half the margin from where
   /// it was filed (so a tet's box moved less than the margin), or dead entries pile up. Scans
   /// every vertex: call it now and then, not every tick.

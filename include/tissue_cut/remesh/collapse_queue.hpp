@@ -39,9 +39,10 @@ class CollapseQueue {
 
   /// Works the queue within the budget. `busy(v)` tells vertices that must not move (next to a
   /// tet still being cut): tets holding them wait. Tets `created_by_cut` around a collapsed or
-  /// moved vertex are queued again. Appends the changes to `change`.
+  /// moved vertex are queued again. Appends the changes to `change`. `busy_changed` false says
+  /// that busy() answers as on the last call: the tets that waited then are not looked at again.
   void process(const std::function<bool(int)>& busy, const std::function<bool(int)>& created_by_cut,
-               ChangeRecord* change);
+               ChangeRecord* change, bool busy_changed = true);
 
   /// Queued tets, those waiting for a busy neighbourhood included (some may have gone stale).
   int pending() const { return static_cast<int>(heap_.size() + waiting_.size()); }

@@ -51,6 +51,8 @@ void Cutter::reset() {
   previous_.reset();
   deferred_.clear();
   counts_ = CutCounts{};
+  ++epoch_;
+  separated_at_ = -1;
   pending_of_.assign(mesh_->tetSlots(), -1);
   double sum = 0.0;
   const auto edges = mesh_->edges();
@@ -59,6 +61,7 @@ void Cutter::reset() {
   snap_distance_ = options_.snap * mean_edge_;
   wound_snap_distance_ = std::max(options_.snap, options_.wound_snap) * mean_edge_;
   grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
+  near_cache_valid_ = false;
 }
 
 void Cutter::mark(const std::array<int, 3>& face) {
@@ -66,12 +69,15 @@ void Cutter::mark(const std::array<int, 3>& face) {
   // wound) has nothing to open there, and a mark would keep its vertices busy for good.
   const int t1 = mesh_->faceTet(face[0], face[1], face[2]);
   if (t1 < 0 || mesh_->faceTet(face[0], face[1], face[2], t1) < 0) return;
-  if (marked_.insert(face).second)
+  if (marked_.insert(face).second) {
+    ++epoch_;
     for (int v : face) ++marked_at_[v];
+  }
 }
 
 bool Cutter::unmark(const std::array<int, 3>& face) {
   if (!marked_.erase(face)) return false;
+  ++epoch_;
   for (int v : face)
     if (--marked_at_[v] == 0) marked_at_.erase(v);
   return true;
@@ -88,7 +94,40 @@ bool Cutter::isPendingPiece(int t) const {
   return t < static_cast<int>(pending_of_.size()) && pending_of_[t] >= 0;
 }
 
-void Cutter::refreshGrid(const ChangeRecord& change) { grid_.update(*mesh_, change); }
+void Cutter::refreshGrid(const ChangeRecord& change) {
+  grid_.update(*mesh_, change);
+  if (!near_cache_valid_) return;
+  // New tets the grid could return for a box inside the cached one join the cache.
+  for (int t : change.added_tets) {
+    if (!grid_.filedNear(*mesh_, t, near_cache_lo_, near_cache_hi_)) continue;
+    const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
+    if (it == near_cache_.end() || *it != t) near_cache_.insert(it, t);
+  }
+}
+
+void Cutter::gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out) {
+  // The blade moves a little each tick: the grid's candidates around a box larger by half a mean
+  // edge serve the ticks while it stays inside; each query filters them by current boxes, exactly
+  // as the grid would (live tets whose current box meets [lo, hi], in id order).
+  if (!near_cache_valid_ || (lo.array() < near_cache_lo_.array()).any() ||
+      (hi.array() > near_cache_hi_.array()).any()) {
+    near_cache_lo_ = lo.array() - 0.5 * mean_edge_;
+    near_cache_hi_ = hi.array() + 0.5 * mean_edge_;
+    grid_.candidates(*mesh_, near_cache_lo_, near_cache_hi_, &near_cache_);
+    near_cache_valid_ = true;
+  }
+  out->clear();
+  for (int t : near_cache_) {
+    if (!mesh_->tetAlive(t)) continue;
+    const TetVerts& tv = mesh_->tet(t);
+    Vec3 tlo = mesh_->current(tv[0]), thi = tlo;
+    for (int i = 1; i < 4; ++i) {
+      tlo = tlo.cwiseMin(mesh_->current(tv[i]));
+      thi = thi.cwiseMax(mesh_->current(tv[i]));
+    }
+    if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all()) out->push_back(t);
+  }
+}
 
 bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                      ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids) {
@@ -106,6 +145,7 @@ bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>
   if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
     pending_of_.resize(mesh_->tetSlots(), -1);
   for (int t : remove) pending_of_[t] = -1;
+  ++epoch_;
   refreshGrid(local);
   change->append(local);
   if (ids) *ids = std::move(added);
@@ -113,6 +153,7 @@ bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>
 }
 
 void Cutter::follow(const ChangeRecord& change) {
+  if (!change.empty()) ++epoch_;
   if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
     pending_of_.resize(mesh_->tetSlots(), -1);
   for (int t : change.removed_tets) pending_of_[t] = -1;
@@ -144,7 +185,7 @@ std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
         near_scratch_.push_back(t);
     }
   } else {
-    grid_.query(*mesh_, lo, hi, &near_scratch_);
+    gridQuery(lo, hi, &near_scratch_);
   }
   std::vector<Coarse> out;
   out.reserve(near_scratch_.size());
@@ -203,6 +244,7 @@ int Cutter::makePending(int tet) {
   for (int c = 0; c < 4; ++c) p.cut.on_cut[c] = on_cut_.count(p.cut.corner[c]) > 0;
   p.pieces = {tet};
   pending_of_[tet] = pid;
+  ++epoch_;
   return pid;
 }
 
@@ -403,6 +445,7 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
       for (int t : p.pieces) pending_of_[t] = -1;
       dropUnusedSteiner(&p.steiner, change);
       pending_.erase(pid);
+      ++epoch_;
       return;
     }
     dropUnusedSteiner(&p.steiner, change);
@@ -424,6 +467,7 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
     change->append(local);
   }
   pending_.erase(pid);
+  ++epoch_;
 }
 
 void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
@@ -442,7 +486,10 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
       continue;
     finalize(pid, change, &touched);
   }
-  if (!touched.empty() || !deferred_.empty()) separate(touched, change);
+  // Vertices waiting to split are tried again only when the mesh or the marks changed since the
+  // last try: the separation depends on nothing else, so a retry would only defer them again.
+  if (!touched.empty() || (!deferred_.empty() && separated_at_ != epoch_))
+    separate(touched, change);
 }
 
 std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
@@ -602,7 +649,9 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
   for (int v : deferred_) touched.push_back(v);
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  separated_at_ = epoch_;  // before the splits below: those make it try again next tick
   const std::set<int> allowed = safeSplits(touched);
+  const std::set<int> before = std::move(deferred_);
   deferred_.clear();
   for (int v : touched) {
     if (!mesh_->vertexAlive(v)) continue;
@@ -678,6 +727,7 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
       }
     }
   }
+  if (deferred_ != before) ++epoch_;
 }
 
 void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change) {
@@ -695,35 +745,73 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   swept_lo_ = lo;
   swept_hi_ = hi;
   swept_valid_ = true;
-  // Only a tet reaching into the snap band of a swept triangle's plane can hold a vertex that
-  // snaps onto the sweep (pointNearTriangle: within the band of the plane) or an edge that
-  // crosses it (ends on both sides of the plane); the box around a long, tilted blade holds many
-  // more. The others are left out before the per-vertex and per-edge work.
-  const double band =
-      std::max(snap_distance_, wound_snap_distance_) * (1.0 + 1e-9) + 1e-12 * mean_edge_;
-  std::array<Vec3, 2> unit{Vec3::Zero(), Vec3::Zero()};
+  // Only a tet meeting the slab of a swept triangle grown by the snap band along its normal can
+  // hold a vertex that snaps onto the sweep (pointNearTriangle: within the band of the plane,
+  // over the triangle itself) or an edge that crosses it; the wound's wider band counts only for
+  // tets holding a wound vertex. A tet is tested against each triangle along its normal (grown by
+  // the band) and the in-plane normals of its three sides (a separating axis test; in the plane
+  // only the crossing test's own rounding margin). The box around a long, tilted blade holds many
+  // more tets; the others are left out before the per-vertex and per-edge work (they would do
+  // nothing there).
+  const double tol = 1e-9 * mean_edge_;
+  const double narrow = snap_distance_ * (1.0 + 1e-9) + tol;
+  const double wide = std::max(snap_distance_, wound_snap_distance_) * (1.0 + 1e-9) + tol;
+  struct Axis {
+    Vec3 n;
+    double at;
+  };
+  std::array<std::array<Axis, 4>, 2> axes;
+  std::array<bool, 2> usable{false, false};
+  std::array<double, 2> side_tol{0.0, 0.0};
   for (int k = 0; k < 2; ++k) {
     const Vec3 n = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
-    if (n.norm() > 0) unit[k] = n.normalized();
+    if (!(n.norm() > 0)) continue;
+    usable[k] = true;
+    const Vec3 unit = n.normalized();
+    axes[k][0] = {unit, unit.dot(tris[k][0])};
+    double longest = 0.0;
+    for (int e = 0; e < 3; ++e) {
+      const Vec3 &p = tris[k][e], &q = tris[k][(e + 1) % 3], &r = tris[k][(e + 2) % 3];
+      longest = std::max(longest, (q - p).norm());
+      Vec3 m = (q - p).cross(unit);
+      if (m.dot(r - p) > 0) m = -m;  // away from the triangle
+      const double len = m.norm();
+      if (len > 0) m /= len;
+      axes[k][e + 1] = {m, m.dot(p)};
+    }
+    // segmentCrossesTriangle lets barycentric coordinates down to -1e-9 through.
+    side_tol[k] = 1e-6 * longest + tol;
   }
-  auto reachesSweep = [&](const TetVerts& tv) {
+  // The distance of the tet from the plane of a swept triangle it lies over (infinity: none).
+  auto reach = [&](const TetVerts& tv) {
+    double best = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 2; ++k) {
-      if (unit[k].isZero()) continue;
+      if (!usable[k]) continue;
+      bool over = true;
+      for (int e = 1; e < 4 && over; ++e) {
+        double lo = std::numeric_limits<double>::infinity();
+        for (int v : tv) lo = std::min(lo, axes[k][e].n.dot(mesh_->current(v)) - axes[k][e].at);
+        over = lo <= side_tol[k];
+      }
+      if (!over) continue;
       double lo = std::numeric_limits<double>::infinity(), hi = -lo;
       for (int v : tv) {
-        const double d = unit[k].dot(mesh_->current(v) - tris[k][0]);
+        const double d = axes[k][0].n.dot(mesh_->current(v)) - axes[k][0].at;
         lo = std::min(lo, d);
         hi = std::max(hi, d);
       }
-      if (lo <= band && hi >= -band) return true;
+      best = std::min(best, std::max({0.0, lo, -hi}));
     }
-    return false;
+    return best;
   };
   std::vector<TetVerts> corners;
   corners.reserve(near.size());
   for (const Coarse& c : near) {
     const TetVerts tv = cornersOf(c);
-    if (reachesSweep(tv)) corners.push_back(tv);
+    const double gap = reach(tv);
+    if (gap <= narrow ||
+        (gap <= wide && std::any_of(tv.begin(), tv.end(), [&](int v) { return onWound(v); })))
+      corners.push_back(tv);
   }
   Vec3 normal = (tris[0][1] - tris[0][0]).cross(tris[0][2] - tris[0][0]);
   if (normal.norm() <= tiny) normal = (tris[1][1] - tris[1][0]).cross(tris[1][2] - tris[1][0]);
@@ -875,7 +963,10 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   // of all vertices): between checks the margin (one mean edge) absorbs the motion.
   if (blade && ++ticks_since_grid_check_ >= 64) {
     ticks_since_grid_check_ = 0;
-    if (grid_.needsRebuild(*mesh_)) grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
+    if (grid_.needsRebuild(*mesh_)) {
+      grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
+      near_cache_valid_ = false;
+    }
   }
   auto endStroke = [&] {
     crossFront({{previous_->base, previous_->tip}}, last_motion_, change);

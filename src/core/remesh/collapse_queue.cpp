@@ -329,10 +329,15 @@ void CollapseQueue::queueFrom(const ChangeRecord& change,
 }
 
 void CollapseQueue::process(const std::function<bool(int)>& busy,
-                            const std::function<bool(int)>& created_by_cut, ChangeRecord* change) {
+                            const std::function<bool(int)>& created_by_cut, ChangeRecord* change,
+                            bool busy_changed) {
   const auto start = std::chrono::steady_clock::now();
-  for (const Entry& e : waiting_) heap_.push(e);
-  waiting_.clear();
+  // Tets waiting for a busy neighbourhood stay aside while busy() answers as before: they would
+  // only wait again (a tet a collapse changed since is queued anew by touched()).
+  if (busy_changed) {
+    for (const Entry& e : waiting_) heap_.push(e);
+    waiting_.clear();
+  }
   auto elapsed_us = [&] {
     return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start)
         .count();
