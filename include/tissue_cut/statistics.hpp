@@ -64,6 +64,9 @@ struct Statistics {
     /// Step time over (springs x CG iterations) [ns]: the cost of one spring in one iteration,
     /// the set-up of the step included.
     double ns_per_spring_iteration = 0.0;
+    /// Inertia the implicit step's floor adds to the lightest vertices, over the total mass
+    /// (last step).
+    double inertia_added = 0.0;
   } physics;
   struct {
     std::int64_t count = 0;

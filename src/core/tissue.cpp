@@ -179,6 +179,7 @@ Statistics Tissue::statistics() const {
   s.physics.springs = physics_->numSprings();
   s.physics.steps = physics_->steps();
   s.physics.time_ms = physics_->timeMs();
+  s.physics.inertia_added = physics_->addedInertia();
   if (physics_->steps() > 0)
     s.physics.cg_iterations_mean =
         static_cast<double>(physics_->totalIterations()) / physics_->steps();
