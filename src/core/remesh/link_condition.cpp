@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <iterator>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -23,6 +22,11 @@ struct Link {
   std::vector<int> vertices;
   std::vector<Edge> edges;
   std::vector<Triangle> triangles;
+  void clear() {
+    vertices.clear();
+    edges.clear();
+    triangles.clear();
+  }
 };
 
 Edge sorted(int x, int y) { return x < y ? Edge{x, y} : Edge{y, x}; }
@@ -39,20 +43,36 @@ void makeSet(std::vector<T>* v) {
   v->erase(std::unique(v->begin(), v->end()), v->end());
 }
 
+// Whether the intersection of the sorted sets x and y is exactly `expected` (sorted), without
+// building it.
 template <typename T>
-std::vector<T> intersection(const std::vector<T>& x, const std::vector<T>& y) {
-  std::vector<T> out;
-  std::set_intersection(x.begin(), x.end(), y.begin(), y.end(), std::back_inserter(out));
-  return out;
+bool intersectionIs(const std::vector<T>& x, const std::vector<T>& y,
+                    const std::vector<T>& expected) {
+  auto i = x.begin(), j = y.begin();
+  auto k = expected.begin();
+  while (i != x.end() && j != y.end()) {
+    if (*i < *j) {
+      ++i;
+    } else if (*j < *i) {
+      ++j;
+    } else {
+      if (k == expected.end() || *k != *i) return false;
+      ++k;
+      ++i;
+      ++j;
+    }
+  }
+  return k == expected.end();
 }
 
 int localIndex(const TetVerts& tv, int v) {
   return static_cast<int>(std::find(tv.begin(), tv.end(), v) - tv.begin());
 }
 
-// Lk(v) in the mesh closed by ω.
-Link vertexLink(const TetMesh& mesh, int v) {
-  Link link;
+// Lk(v) in the mesh closed by ω, into *out (its buffers are reused).
+void vertexLink(const TetMesh& mesh, int v, Link* out) {
+  Link& link = *out;
+  link.clear();
   for (int t : mesh.vertexTets(v)) {
     const TetVerts& tv = mesh.tet(t);
     const int i = localIndex(tv, v);
@@ -80,13 +100,13 @@ Link vertexLink(const TetMesh& mesh, int v) {
   makeSet(&link.vertices);
   makeSet(&link.edges);
   makeSet(&link.triangles);
-  return link;
 }
 
 // Lk(ab) in the mesh closed by ω. It has no triangles: that would need a 5-simplex, or a boundary
 // simplex holding a, b and two more vertices.
-Link edgeLink(const TetMesh& mesh, int a, int b, const std::vector<int>& star) {
-  Link link;
+void edgeLink(const TetMesh& mesh, int a, int b, const std::vector<int>& star, Link* out) {
+  Link& link = *out;
+  link.clear();
   for (int t : star) {
     const TetVerts& tv = mesh.tet(t);
     const int ia = localIndex(tv, a), ib = localIndex(tv, b);
@@ -105,7 +125,6 @@ Link edgeLink(const TetMesh& mesh, int a, int b, const std::vector<int>& star) {
   }
   makeSet(&link.vertices);
   makeSet(&link.edges);
-  return link;
 }
 
 }  // namespace
@@ -152,11 +171,16 @@ bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
   if (star.empty())
     throw std::invalid_argument("linkConditionHolds: (" + std::to_string(a) + ", " +
                                 std::to_string(b) + ") is not an edge of the mesh");
-  const Link la = vertexLink(mesh, a), lb = vertexLink(mesh, b), lab = edgeLink(mesh, a, b, star);
+  // The links' buffers are kept between calls (the queue checks thousands of edges a cut).
+  thread_local Link la, lb, lab;
+  vertexLink(mesh, a, &la);
+  vertexLink(mesh, b, &lb);
+  edgeLink(mesh, a, b, star, &lab);
   // Lk(ab) is always inside both links, so equality fails exactly when the ends share more.
-  return intersection(la.vertices, lb.vertices) == lab.vertices &&
-         intersection(la.edges, lb.edges) == lab.edges &&
-         intersection(la.triangles, lb.triangles).empty();
+  static const std::vector<Triangle> kNone;
+  return intersectionIs(la.vertices, lb.vertices, lab.vertices) &&
+         intersectionIs(la.edges, lb.edges, lab.edges) &&
+         intersectionIs(la.triangles, lb.triangles, kNone);
 }
 
 }  // namespace tissue_cut
