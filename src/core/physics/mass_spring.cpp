@@ -411,7 +411,8 @@ std::string MassSpring::step(double dt) {
   // codes do for small elements). Repeated cuts leave micrometre tets whose corners weigh 1e-12
   // of the rest while their springs stay stiff; such rows make the system ill-conditioned: at a
   // floor of 1e-9 CG returned speeds of 50-130 m/s, at 1e-3 the 20k organ needed up to 25 CG
-  // iterations on the ticks after a cut, at 3e-2 up to 15 (99th percentiles). The floor adds
+  // iterations on the ticks after a cut, at 3e-2 up to 15 (99th percentiles, tolerance 1e-6;
+  // 12 at 1e-5). The floor adds
   // 0.04% of the mass there as inertia, on 3% of the vertices (the mass statistics and gravity
   // keep the true mass; addedInertia() reports it).
   {
