@@ -9,6 +9,7 @@
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/topology.hpp"
 #include "tissue_cut/tissue.hpp"
+#include "mesh_edits.hpp"
 
 using namespace tissue_cut;
 
@@ -120,15 +121,7 @@ TEST(Collapse, WaitingTetsWakeWhenTheBusyStateChanges) {
   TetMesh mesh(block.V, block.T);
   // Split tet 100 at a point just off one face: four tets, three of them slivers.
   ChangeRecord change;
-  const TetVerts c = mesh.tet(100);
-  const int m = mesh.addVertex({{c[0], 0.32}, {c[1], 0.33}, {c[2], 0.33}, {c[3], 0.02}}, &change);
-  std::vector<TetVerts> add;
-  for (int f = 0; f < 4; ++f) {
-    TetVerts t = c;
-    t[f] = m;
-    add.push_back(t);
-  }
-  mesh.replaceTets({100}, add, &change);
+  const int m = test::splitAt(&mesh, 100, {0.32, 0.33, 0.33, 0.02}, &change);
   CollapseQueue queue(&mesh, 0.3, 0.0);
   auto created = [&](int t) {
     return std::find(change.added_tets.begin(), change.added_tets.end(), t) !=

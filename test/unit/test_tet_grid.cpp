@@ -7,6 +7,7 @@
 
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/tet_grid.hpp"
+#include "mesh_edits.hpp"
 
 using namespace tissue_cut;
 
@@ -24,6 +25,16 @@ std::vector<int> bruteForce(const TetMesh& mesh, const Vec3& lo, const Vec3& hi)
     if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all()) out.push_back(t);
   }
   return out;
+}
+
+// Moves every vertex by `distance` in a random direction.
+void drift(TetMesh* mesh, double distance, std::mt19937* rng) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int v = 0; v < mesh->vertexSlots(); ++v) {
+    Vec3 d(unit(*rng), unit(*rng), unit(*rng));
+    d *= distance / std::max(d.norm(), 1e-12);
+    mesh->current(v) += d;
+  }
 }
 
 // Random thin boxes like one tick's sweep, some reaching outside the block.
@@ -57,12 +68,7 @@ TEST(TetGrid, DriftBelowHalfTheMarginNeedsNoRebuildAndStaysExact) {
   TetGrid grid;
   grid.build(mesh, 0.012, margin);
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  for (int v = 0; v < mesh.vertexSlots(); ++v) {
-    Vec3 d(unit(rng), unit(rng), unit(rng));
-    d *= 0.49 * margin / std::max(d.norm(), 1e-12);
-    mesh.current(v) += d;
-  }
+  drift(&mesh, 0.49 * margin, &rng);
   EXPECT_FALSE(grid.needsRebuild(mesh));
   expectExactQueries(mesh, grid, &rng);
   mesh.current(0) = mesh.rest(0) + Vec3(0.51 * margin, 0.0, 0.0);
@@ -76,15 +82,7 @@ TEST(TetGrid, ReplacedTetsAreFoundAfterAnUpdate) {
   grid.build(mesh, 0.012, 0.006);
   // Split tet 100 at its centroid into four.
   ChangeRecord change;
-  const TetVerts c = mesh.tet(100);
-  const int m = mesh.addVertex({{c[0], 0.25}, {c[1], 0.25}, {c[2], 0.25}, {c[3], 0.25}}, &change);
-  std::vector<TetVerts> add;
-  for (int f = 0; f < 4; ++f) {
-    TetVerts t = c;
-    t[f] = m;
-    add.push_back(t);
-  }
-  mesh.replaceTets({100}, add, &change);
+  const int m = test::splitAt(&mesh, 100, {0.25, 0.25, 0.25, 0.25}, &change);
   grid.update(mesh, change);
   std::mt19937 rng(3);
   expectExactQueries(mesh, grid, &rng);
@@ -111,26 +109,14 @@ TEST(TetGrid, CandidatesHoldEveryQueryInsideTheirBox) {
   // Far fewer than all: the candidates are local.
   EXPECT_LT(kept.size(), static_cast<std::size_t>(mesh.numTets()));
   std::mt19937 rng(5);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0), in(0.0, 1.0);
-  for (int v = 0; v < mesh.vertexSlots(); ++v) {
-    Vec3 d(unit(rng), unit(rng), unit(rng));
-    d *= 0.49 * margin / std::max(d.norm(), 1e-12);
-    mesh.current(v) += d;
-  }
+  std::uniform_real_distribution<double> in(0.0, 1.0);
+  drift(&mesh, 0.49 * margin, &rng);
   ASSERT_FALSE(grid.needsRebuild(mesh));
   // Split a tet inside the box; its pieces are filed and join the candidates.
   ChangeRecord change;
   const std::vector<int> inside = grid.query(mesh, Vec3::Zero(), Vec3::Zero());
   ASSERT_FALSE(inside.empty());
-  const TetVerts c = mesh.tet(inside.front());
-  const int m = mesh.addVertex({{c[0], 0.25}, {c[1], 0.25}, {c[2], 0.25}, {c[3], 0.25}}, &change);
-  std::vector<TetVerts> add;
-  for (int f = 0; f < 4; ++f) {
-    TetVerts t = c;
-    t[f] = m;
-    add.push_back(t);
-  }
-  mesh.replaceTets({inside.front()}, add, &change);
+  test::splitAt(&mesh, inside.front(), {0.25, 0.25, 0.25, 0.25}, &change);
   grid.update(mesh, change);
   int joined = 0;
   for (int t : change.added_tets)

@@ -39,6 +39,10 @@ class TetGrid {
   /// cells, which queries clamp to alike.
   std::array<int, 3> cellOf(const Vec3& x) const;
   void insert(const TetMesh& mesh, int t);
+  /// Live tets filed in the cells around [lo, hi] whose filed box may have drifted into it, in id
+  /// order; with `current`, only those whose current box meets [lo, hi].
+  void filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool current,
+             std::vector<int>* out) const;
 
   double cell_ = 1.0, margin_ = 0.0;
   Vec3 origin_ = Vec3::Zero();

@@ -109,8 +109,8 @@ std::vector<int> TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec3&
   return out;
 }
 
-void TetGrid::candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
-                         std::vector<int>* out) const {
+void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool current,
+                    std::vector<int>* out) const {
   out->clear();
   if (cells_.empty()) return;
   if (seen_.size() < static_cast<std::size_t>(mesh.tetSlots())) seen_.resize(mesh.tetSlots(), 0);
@@ -121,6 +121,8 @@ void TetGrid::candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
   const Vec3 margin = Vec3::Constant(margin_);
   const auto [i0, j0, k0] = cellOf(lo - margin);
   const auto [i1, j1, k1] = cellOf(hi + margin);
+  // A filed box that may have drifted into the query box overlaps it grown by the margin (a
+  // little more, and rounded outward, for the floats).
   float qlo[3], qhi[3];
   for (int d = 0; d < 3; ++d) {
     const double slack = margin_ * 1.001 + 1e-6 * (std::abs(lo[d]) + std::abs(hi[d]));
@@ -137,9 +139,19 @@ void TetGrid::candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
           const int t = e.tet;
           if (t >= mesh.tetSlots() || seen_[t] == stamp_ || !mesh.tetAlive(t)) continue;
           seen_[t] = stamp_;
+          if (current) {
+            Vec3 tlo, thi;
+            tetBox(mesh, t, &tlo, &thi);
+            if (!((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all())) continue;
+          }
           out->push_back(t);
         }
   std::sort(out->begin(), out->end());
+}
+
+void TetGrid::candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
+                         std::vector<int>* out) const {
+  filed(mesh, lo, hi, false, out);
 }
 
 bool TetGrid::filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) const {
@@ -155,40 +167,7 @@ bool TetGrid::filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& 
 
 void TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
                     std::vector<int>* out) const {
-  out->clear();
-  if (cells_.empty()) return;
-  if (seen_.size() < static_cast<std::size_t>(mesh.tetSlots())) seen_.resize(mesh.tetSlots(), 0);
-  if (++stamp_ == 0) {
-    std::fill(seen_.begin(), seen_.end(), 0);
-    stamp_ = 1;
-  }
-  const Vec3 margin = Vec3::Constant(margin_);
-  const auto [i0, j0, k0] = cellOf(lo - margin);
-  const auto [i1, j1, k1] = cellOf(hi + margin);
-  // A filed box that may have drifted into the query box overlaps it grown by the margin (a
-  // little more, for the floats).
-  float qlo[3], qhi[3];
-  for (int d = 0; d < 3; ++d) {
-    const double slack = margin_ * 1.001 + 1e-6 * (std::abs(lo[d]) + std::abs(hi[d]));
-    qlo[d] = static_cast<float>(lo[d] - slack);
-    qhi[d] = static_cast<float>(hi[d] + slack);
-  }
-  for (int k = k0; k <= k1; ++k)
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i)
-        for (const Entry& e : cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)]) {
-          if (e.lo[0] > qhi[0] || e.hi[0] < qlo[0] || e.lo[1] > qhi[1] || e.hi[1] < qlo[1] ||
-              e.lo[2] > qhi[2] || e.hi[2] < qlo[2])
-            continue;
-          const int t = e.tet;
-          if (t >= mesh.tetSlots() || seen_[t] == stamp_ || !mesh.tetAlive(t)) continue;
-          seen_[t] = stamp_;
-          Vec3 tlo, thi;
-          tetBox(mesh, t, &tlo, &thi);
-          if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all())
-            out->push_back(t);
-        }
-  std::sort(out->begin(), out->end());
+  filed(mesh, lo, hi, true, out);
 }
 
 }  // namespace tissue_cut
