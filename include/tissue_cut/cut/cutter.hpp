@@ -137,6 +137,7 @@ class Cutter {
   bool replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids);
   void refreshGrid(const ChangeRecord& change);
+  void rebuildGrid();
   /// The grid's query, from candidates kept while the blade stays near (see near_cache_).
   void gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out);
 

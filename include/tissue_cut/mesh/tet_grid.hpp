@@ -3,12 +3,16 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
 #include "tissue_cut/mesh/tet_mesh.hpp"
 
 namespace tissue_cut {
+
+/// Whether tet t's current bounding box meets the box [lo, hi]: what a query keeps.
+bool tetBoxMeets(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi);
 
 class TetGrid {
  public:
@@ -43,6 +47,11 @@ class TetGrid {
   /// order; with `current`, only those whose current box meets [lo, hi].
   void filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool current,
              std::vector<int>* out) const;
+  /// How much further than [lo, hi] a filed box is looked for along axis d: the margin, and a
+  /// little more for the floats.
+  double reach(const Vec3& lo, const Vec3& hi, int d) const {
+    return margin_ * 1.001 + 1e-6 * (std::abs(lo[d]) + std::abs(hi[d]));
+  }
 
   double cell_ = 1.0, margin_ = 0.0;
   Vec3 origin_ = Vec3::Zero();

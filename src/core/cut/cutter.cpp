@@ -4,8 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <cstdlib>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -60,8 +60,12 @@ void Cutter::reset() {
   mean_edge_ = edges.empty() ? 1.0 : sum / edges.size();
   snap_distance_ = options_.snap * mean_edge_;
   wound_snap_distance_ = std::max(options_.snap, options_.wound_snap) * mean_edge_;
+  rebuildGrid();
+}
+
+void Cutter::rebuildGrid() {
   grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
-  near_cache_valid_ = false;
+  near_cache_valid_ = false;  // the candidates were the old grid's
 }
 
 void Cutter::mark(const std::array<int, 3>& face) {
@@ -117,16 +121,8 @@ void Cutter::gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out) {
     near_cache_valid_ = true;
   }
   out->clear();
-  for (int t : near_cache_) {
-    if (!mesh_->tetAlive(t)) continue;
-    const TetVerts& tv = mesh_->tet(t);
-    Vec3 tlo = mesh_->current(tv[0]), thi = tlo;
-    for (int i = 1; i < 4; ++i) {
-      tlo = tlo.cwiseMin(mesh_->current(tv[i]));
-      thi = thi.cwiseMax(mesh_->current(tv[i]));
-    }
-    if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all()) out->push_back(t);
-  }
+  for (int t : near_cache_)
+    if (mesh_->tetAlive(t) && tetBoxMeets(*mesh_, t, lo, hi)) out->push_back(t);
 }
 
 bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
@@ -174,16 +170,8 @@ std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
     // Inside this tick's sweep box, whose tets no change since has replaced: filter those,
     // exactly as the grid would (live tets whose current box meets [lo, hi], in id order).
     near_scratch_.clear();
-    for (int t : swept_near_) {
-      const TetVerts& tv = mesh_->tet(t);
-      Vec3 tlo = mesh_->current(tv[0]), thi = tlo;
-      for (int i = 1; i < 4; ++i) {
-        tlo = tlo.cwiseMin(mesh_->current(tv[i]));
-        thi = thi.cwiseMax(mesh_->current(tv[i]));
-      }
-      if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all())
-        near_scratch_.push_back(t);
-    }
+    for (int t : swept_near_)
+      if (tetBoxMeets(*mesh_, t, lo, hi)) near_scratch_.push_back(t);
   } else {
     gridQuery(lo, hi, &near_scratch_);
   }
@@ -963,10 +951,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   // of all vertices): between checks the margin (one mean edge) absorbs the motion.
   if (blade && ++ticks_since_grid_check_ >= 64) {
     ticks_since_grid_check_ = 0;
-    if (grid_.needsRebuild(*mesh_)) {
-      grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
-      near_cache_valid_ = false;
-    }
+    if (grid_.needsRebuild(*mesh_)) rebuildGrid();
   }
   auto endStroke = [&] {
     crossFront({{previous_->base, previous_->tip}}, last_motion_, change);

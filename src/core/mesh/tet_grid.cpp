@@ -21,6 +21,12 @@ constexpr double kMaxCellsPerTet = 4.0;
 
 }  // namespace
 
+bool tetBoxMeets(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) {
+  Vec3 tlo, thi;
+  tetBox(mesh, t, &tlo, &thi);
+  return (tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all();
+}
+
 std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
   std::array<int, 3> c;
   for (int d = 0; d < 3; ++d) {
@@ -125,7 +131,7 @@ void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool cu
   // little more, and rounded outward, for the floats).
   float qlo[3], qhi[3];
   for (int d = 0; d < 3; ++d) {
-    const double slack = margin_ * 1.001 + 1e-6 * (std::abs(lo[d]) + std::abs(hi[d]));
+    const double slack = reach(lo, hi, d);
     qlo[d] = std::nextafter(static_cast<float>(lo[d] - slack), -HUGE_VALF);
     qhi[d] = std::nextafter(static_cast<float>(hi[d] + slack), HUGE_VALF);
   }
@@ -139,12 +145,7 @@ void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool cu
           const int t = e.tet;
           if (t >= mesh.tetSlots() || seen_[t] == stamp_ || !mesh.tetAlive(t)) continue;
           seen_[t] = stamp_;
-          if (current) {
-            Vec3 tlo, thi;
-            tetBox(mesh, t, &tlo, &thi);
-            if (!((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all())) continue;
-          }
-          out->push_back(t);
+          if (!current || tetBoxMeets(mesh, t, lo, hi)) out->push_back(t);
         }
   std::sort(out->begin(), out->end());
 }
@@ -159,7 +160,7 @@ bool TetGrid::filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& 
   Vec3 tlo, thi;
   tetBox(mesh, t, &tlo, &thi);
   for (int d = 0; d < 3; ++d) {
-    const double slack = margin_ * 1.001 + 1e-6 * (std::abs(lo[d]) + std::abs(hi[d]));
+    const double slack = reach(lo, hi, d);
     if (tlo[d] > hi[d] + slack || thi[d] < lo[d] - slack) return false;
   }
   return true;

@@ -412,9 +412,8 @@ std::string MassSpring::step(double dt) {
   // of the rest while their springs stay stiff; such rows make the system ill-conditioned: at a
   // floor of 1e-9 CG returned speeds of 50-130 m/s, at 1e-3 the 20k organ needed up to 25 CG
   // iterations on the ticks after a cut, at 3e-2 up to 15 (99th percentiles, tolerance 1e-6;
-  // 12 at 1e-5). The floor adds
-  // 0.04% of the mass there as inertia, on 3% of the vertices (the mass statistics and gravity
-  // keep the true mass; addedInertia() reports it).
+  // 12 at 1e-5). The floor adds 0.04% of the mass there as inertia, on 3% of the vertices (the
+  // mass statistics and gravity keep the true mass; addedInertia() reports it).
   {
     const int n = mesh_->vertexSlots();
     inertia_.resize(n);
@@ -425,8 +424,10 @@ std::string MassSpring::step(double dt) {
     const double floor = alive > 0 ? kMinInertia * total / alive : 0.0;
     double added = 0.0;
     for (int v = 0; v < n; ++v) {
-      inertia_[v] = mesh_->vertexAlive(v) ? std::max(mass_[v], floor) : 0.0;
-      if (mesh_->vertexAlive(v)) added += inertia_[v] - mass_[v];
+      inertia_[v] = 0.0;
+      if (!mesh_->vertexAlive(v)) continue;
+      inertia_[v] = std::max(mass_[v], floor);
+      added += inertia_[v] - mass_[v];
     }
     added_inertia_ = total > 0 ? added / total : 0.0;
   }
