@@ -151,23 +151,32 @@ BENCHMARK(BM_CutTick)->Arg(5100)->Arg(20000)->Arg(80000)->Unit(benchmark::kMicro
 
 // One implicit step (backward Euler, CG with default tolerance) of the block at rest under
 // gravity after 50 settling steps; reports CG iterations and ns per spring per CG iteration.
+// One implicit step at rest; the second argument is physics/threads (wall time: the helpers'
+// work counts).
 void BM_PhysicsStep(benchmark::State& state) {
   const MeshData block = blockOf(static_cast<int>(state.range(0)));
   TetMesh mesh(block.V, block.T);
-  MassSpring physics(&mesh, MassSpringParams{});
+  MassSpringParams params;
+  params.threads = static_cast<int>(state.range(1));
+  MassSpring physics(&mesh, params);
   for (int k = 0; k < 50; ++k) physics.step(1e-3);
   const long long it0 = physics.totalIterations();
   for (auto _ : state) physics.step(1e-3);
   const double iterations = static_cast<double>(physics.totalIterations() - it0);
   state.counters["springs"] = physics.numSprings();
+  state.counters["threads"] = physics.numThreads();
   state.counters["cg_iterations"] = benchmark::Counter(iterations / state.iterations());
   // Time per spring per iteration: the step's time over (springs x iterations), in ns.
   state.counters["ns_per_spring_iteration"] = benchmark::Counter(
       iterations * physics.numSprings(), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_PhysicsStep)->Arg(5100)->Arg(20000)->Arg(80000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PhysicsStep)
+    ->ArgsProduct({{5100, 20000, 80000}, {1, 2}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
 
-// What the CG tolerance costs: the 20k block with relative tolerance 1e-6 (default), 1e-4, 1e-3.
+// What the CG tolerance costs: the 20k block with relative tolerance 1e-6, 1e-4, 1e-3 (default
+// 1e-5; one thread).
 void BM_PhysicsStepTolerance(benchmark::State& state) {
   const MeshData block = blockOf(20000);
   TetMesh mesh(block.V, block.T);

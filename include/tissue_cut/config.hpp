@@ -50,6 +50,7 @@ struct Config {
     std::string fixed_axis = "z";         ///< x, y or z
     std::string fixed_side = "min";       ///< min or max
     double fixed_band = 0.001;            ///< vertices this close to that side are fixed [m]
+    int threads = 2;  ///< threads of the implicit step (at most the machine's hardware threads)
   } physics;
 
   /// The first invalid value as "key: why", or "" when all are usable.

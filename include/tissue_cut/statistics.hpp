@@ -67,6 +67,7 @@ struct Statistics {
     /// Inertia the implicit step's floor adds to the lightest vertices, over the total mass
     /// (last step).
     double inertia_added = 0.0;
+    int threads = 1;  ///< threads of the implicit step
   } physics;
   struct {
     std::int64_t count = 0;

@@ -56,6 +56,7 @@ const std::map<std::string, Setter>& setters() {
        [](const YAML::Node& n, Config& c) { c.physics.fixed_side = n.as<std::string>(); }},
       {"physics/fixed_band",
        [](const YAML::Node& n, Config& c) { c.physics.fixed_band = n.as<double>(); }},
+      {"physics/threads", [](const YAML::Node& n, Config& c) { c.physics.threads = n.as<int>(); }},
   };
   return table;
 }
@@ -129,6 +130,7 @@ std::string Config::check() const {
     return "physics/fixed_side: must be min or max";
   if (!std::isfinite(physics.fixed_band) || physics.fixed_band < 0)
     return "physics/fixed_band: must be non-negative";
+  if (physics.threads < 1 || physics.threads > 64) return "physics/threads: must be in [1, 64]";
   return "";
 }
 

@@ -39,6 +39,7 @@ MassSpringParams massSpringParams(const Config& config) {
   p.fixed_axis = config.fixedAxisIndex();
   p.fixed_max_side = config.physics.fixed_side == "max";
   p.fixed_band = config.physics.fixed_band;
+  p.threads = config.physics.threads;
   return p;
 }
 
@@ -180,6 +181,7 @@ Statistics Tissue::statistics() const {
   s.physics.steps = physics_->steps();
   s.physics.time_ms = physics_->timeMs();
   s.physics.inertia_added = physics_->addedInertia();
+  s.physics.threads = physics_->numThreads();
   if (physics_->steps() > 0)
     s.physics.cg_iterations_mean =
         static_cast<double>(physics_->totalIterations()) / physics_->steps();

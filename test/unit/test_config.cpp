@@ -42,6 +42,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.physics.fixed_axis = "x";
   other.physics.fixed_side = "max";
   other.physics.fixed_band = 0.5;
+  other.physics.threads = 7;
   const Config f =
       loadConfigFile(std::string(TISSUE_CUT_SOURCE_DIR) + "/config/tissue.yaml", other);
   EXPECT_EQ(f.rate, d.rate);
@@ -64,7 +65,8 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.physics.fixed_axis, d.physics.fixed_axis);
   EXPECT_EQ(f.physics.fixed_side, d.physics.fixed_side);
   EXPECT_EQ(f.physics.fixed_band, d.physics.fixed_band);
-  EXPECT_EQ(configKeys().size(), 20u) << "a key was added: extend this test and tissue.yaml";
+  EXPECT_EQ(f.physics.threads, d.physics.threads);
+  EXPECT_EQ(configKeys().size(), 21u) << "a key was added: extend this test and tissue.yaml";
 }
 
 TEST(Config, PartialFileOverridesOnlyItsKeys) {
@@ -91,6 +93,9 @@ TEST(Config, AbsurdValuesAreNamed) {
       {"physics:\n  integrator: rk4\n", "physics/integrator"},
       {"physics:\n  density: .nan\n", "physics/density"},
       {"physics:\n  gravity: [0, 1]\n", "physics/gravity"},
+      {"physics:\n  threads: 0\n", "physics/threads"},
+      {"physics:\n  threads: 1000\n", "physics/threads"},
+      {"physics:\n  threads: 1.5\n", "physics/threads"},
       {"rate: fast\n", "rate"},
   };
   for (const auto& [text, key] : cases) {

@@ -1,13 +1,17 @@
 // MassSpring: lumped masses and edge springs on the live tets, integrated by linearly-implicit
-// backward Euler (matrix-free, Jacobi-preconditioned conjugate gradients, warm-started) or by
-// semi-implicit Euler. Follows every cut and collapse through TetMesh change records.
+// backward Euler (matrix-free, Jacobi-preconditioned conjugate gradients, warm-started; its loops
+// split over MassSpringParams::threads threads) or by semi-implicit Euler. Follows every cut and collapse through TetMesh change records.
 #pragma once
 
+#include <functional>
+#include <memory>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "tissue_cut/mesh/tet_mesh.hpp"
+#include "tissue_cut/physics/worker_team.hpp"
 
 namespace tissue_cut {
 
@@ -27,6 +31,9 @@ struct MassSpringParams {
   /// iterations than at 1e-6.
   double cg_tolerance = 1e-5;
   double max_speed = 50.0;     ///< a faster vertex means the step blew up [m/s]
+  /// Threads the implicit step's loops run on (at most the machine's hardware threads). The
+  /// result depends on the count (sums are split), never on timing.
+  int threads = 1;
 };
 
 class MassSpring {
@@ -53,6 +60,8 @@ class MassSpring {
   long long totalIterations() const { return total_iterations_; }
   double timeMs() const { return time_ms_; }
   int numSprings() const { return static_cast<int>(springs_.size()); }
+  /// Threads the implicit step runs on: params().threads, at most the hardware threads.
+  int numThreads() const;
   double mass(int v) const { return mass_[v]; }
   bool fixed(int v) const { return fixed_[v] != 0; }
   /// Fixes (or frees) vertices by id, on top of the band.
@@ -67,6 +76,7 @@ class MassSpring {
     double stiffness;  ///< [N/m]
   };
   void resize();
+  void makeTeam();  // team_ for params_.threads
   void updateMass(int v);
   void updateSpring(int a, int b);
   /// Symmetric 3x3 block (xx, xy, xz, yy, yz, zz); a spring's is kept scaled by h^2.
@@ -74,8 +84,18 @@ class MassSpring {
     double xx, xy, xz, yy, yz, zz;
   };
   void forces(std::vector<Vec3>* f) const;
-  /// out = A p with A = (1 + h alpha) M + h^2 K, rows of fixed vertices zero; returns p . A p.
-  double multiply(const std::vector<Vec3>& p, std::vector<Vec3>* out) const;
+  /// Runs part(0) .. part(numThreads() - 1) at once (see WorkerTeam).
+  void parallel(const std::function<void(int)>& part);
+  /// The part'th of numThreads() nearly equal ranges of [0, count).
+  std::pair<int, int> rangeOf(int count, int part) const;
+  /// A p with A = (1 + h alpha) M + h^2 K, in three steps: startProduct() for every vertex (the
+  /// mass term), springProducts() for every part (its springs' terms into its own buffer:
+  /// accumulator(part)), finishProduct() for every vertex (the parts' sums into ap_, held rows
+  /// zero).
+  void startProduct(int v, const Vec3& p);
+  void springProducts(int part, const Vec3* p);
+  void finishProduct(int v);
+  Vec3* accumulator(int part);
   bool stepImplicit(double dt);
   void stepSemiImplicit(double dt);
 
@@ -96,7 +116,15 @@ class MassSpring {
   std::vector<Block> blocks_;  // per-spring h^2-scaled stiffness blocks of this step
   std::vector<Vec3> b_, r_, z_, p_, ap_, dv_, x0_;
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
-  std::vector<int> fixed_list_;  // the fixed vertices of this step
+  std::vector<unsigned char> held_;  // rows held at zero this step: fixed or dead vertices
+  // The parts after the first sum their springs' terms here (per part, per vertex).
+  std::vector<std::vector<Vec3>> extra_;
+  std::vector<std::vector<Block>> extra_diag_;
+  struct alignas(64) Partial {  // one part's share of a dot product, a cache line of its own
+    double sum[3];
+  };
+  std::vector<Partial> partial_;
+  std::unique_ptr<WorkerTeam> team_;  // none: one thread
   double mass_damping_ = 1.0;    // 1 + h alpha of this step
   int instabilities_ = 0, last_iterations_ = 0;
   long long steps_ = 0, total_iterations_ = 0;

@@ -49,6 +49,7 @@ bool invert(Sym* m) {
 
 MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
     : mesh_(mesh), params_(params) {
+  makeTeam();
   resize();
   tet_copy_.assign(mesh_->tetSlots(), {-1, -1, -1, -1});
   for (int t = 0; t < mesh_->tetSlots(); ++t)
@@ -78,6 +79,7 @@ void MassSpring::setParams(const MassSpringParams& params) {
   const bool stiffness_changed = params.young_modulus != params_.young_modulus;
   const bool mass_changed = params.density != params_.density;
   params_ = params;
+  makeTeam();
   if (mass_changed)
     for (int v = 0; v < mesh_->vertexSlots(); ++v)
       if (mesh_->vertexAlive(v)) updateMass(v);
@@ -85,11 +87,19 @@ void MassSpring::setParams(const MassSpringParams& params) {
     for (const Spring& s : std::vector<Spring>(springs_)) updateSpring(s.a, s.b);
 }
 
+void MassSpring::makeTeam() {
+  const int threads = WorkerTeam::usable(params_.threads);
+  if (threads == numThreads()) return;
+  team_.reset();
+  if (threads > 1) team_ = std::make_unique<WorkerTeam>(threads);
+}
+
 void MassSpring::resize() {
   const std::size_t n = mesh_->vertexSlots();
   mass_.resize(n, 0.0);
   fixed_.resize(n, 0);
   warm_.resize(n, Vec3::Zero());
+  warm_prev_.resize(n, Vec3::Zero());  // new slots: nothing to extrapolate from (see follow())
 }
 
 void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
@@ -205,22 +215,35 @@ void MassSpring::forces(std::vector<Vec3>* f) const {
   }
 }
 
-double MassSpring::multiply(const std::vector<Vec3>& p, std::vector<Vec3>* out_vec) const {
-  // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), fixed vertices held at zero.
-  // Dead vertices have no mass and no springs, so their rows come out zero by themselves.
-  const int n = mesh_->vertexSlots();
-  Vec3* out = out_vec->data();
-  const Vec3* pv = p.data();
-  for (int v = 0; v < n; ++v) out[v] = (mass_damping_ * inertia_[v]) * pv[v];
-  // Springs are kept sorted by their first end (mostly: new ones go last), so the first end's sum
-  // stays in registers along a run and only the second end is scattered; that breaks the chain
-  // of dependent loads and stores through out[a].
-  const std::size_t ns = springs_.size();
+void MassSpring::parallel(const std::function<void(int)>& part) {
+  if (team_) {
+    team_->run(part);
+  } else {
+    part(0);
+  }
+}
+
+int MassSpring::numThreads() const { return team_ ? team_->size() : 1; }
+
+std::pair<int, int> MassSpring::rangeOf(int count, int part) const {
+  const long long parts = numThreads();
+  return {static_cast<int>(count * part / parts), static_cast<int>(count * (part + 1) / parts)};
+}
+
+Vec3* MassSpring::accumulator(int part) { return part == 0 ? ap_.data() : extra_[part - 1].data(); }
+
+void MassSpring::springProducts(int part, const Vec3* pv) {
+  // h^2 K (p_a - p_b) of this part's springs, added at a and taken at b. Springs are kept sorted
+  // by their first end (mostly: new ones go last), so the first end's sum stays in registers along
+  // a run and only the second end is scattered; that breaks the chain of dependent loads and
+  // stores through out[a].
+  Vec3* out = accumulator(part);
+  const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
   const Spring* springs = springs_.data();
   const Block* blocks = blocks_.data();
   int run = -1;
   Vec3 pa = Vec3::Zero(), sum = Vec3::Zero();
-  for (std::size_t i = 0; i < ns; ++i) {
+  for (int i = begin; i < end; ++i) {
     const int a = springs[i].a, b = springs[i].b;
     if (a != run) {
       if (run >= 0) out[run] += sum;
@@ -233,147 +256,223 @@ double MassSpring::multiply(const std::vector<Vec3>& p, std::vector<Vec3>* out_v
     out[b] -= r;
   }
   if (run >= 0) out[run] += sum;
-  for (int v : fixed_list_) out[v].setZero();
-  double pap = 0.0;
-  for (int v = 0; v < n; ++v) pap += pv[v].dot(out[v]);
-  return pap;
+}
+
+void MassSpring::startProduct(int v, const Vec3& p) {
+  // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b): the mass term in the first part's
+  // sums, the other parts' start at zero.
+  ap_[v] = (mass_damping_ * inertia_[v]) * p;
+  for (std::vector<Vec3>& e : extra_) e[v].setZero();
+}
+
+void MassSpring::finishProduct(int v) {
+  // Held rows (fixed vertices) are zero; dead vertices have no mass and no springs.
+  for (const std::vector<Vec3>& e : extra_) ap_[v] += e[v];
+  if (held_[v]) ap_[v].setZero();
 }
 
 bool MassSpring::stepImplicit(double dt) {
+  // Linearly-implicit backward Euler: (M (1 + h alpha) + h^2 K) dv = h (f0 + h K v0), solved by
+  // block-Jacobi preconditioned CG. Every loop runs in numThreads() parts: vertex loops over
+  // ranges of vertices, spring loops over ranges of springs, each part summing into its own
+  // buffer (the parts' buffers are added in a fixed order, so a step's result does not depend on
+  // timing). With one part the sums come out exactly as a single loop makes them.
   const int n = mesh_->vertexSlots();
+  const int parts = numThreads();
   const double h2 = dt * dt, inv_dt = 1.0 / dt;
   mass_damping_ = 1.0 + dt * params_.damping;
-  for (auto* v : {&b_, &r_, &z_, &p_, &ap_}) v->resize(n);
+  for (auto* v : {&b_, &r_, &z_, &p_, &ap_, &dv_}) v->resize(n);
   inv_diag_.resize(n);
+  held_.resize(n);
   blocks_.resize(springs_.size());
-  fixed_list_.clear();
-  for (int v = 0; v < n; ++v)
-    if (fixed_[v] && mesh_->vertexAlive(v)) fixed_list_.push_back(v);
-  // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
-  // forces, their stiffness blocks (kept scaled by h^2 for the CG products) and the diagonal
-  // blocks of A for the preconditioner.
-  for (int v = 0; v < n; ++v) {
-    const bool alive = mesh_->vertexAlive(v);
-    b_[v] = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
-                  : Vec3::Zero();
-    const double md = mass_damping_ * inertia_[v];
-    inv_diag_[v] = {md, 0.0, 0.0, md, 0.0, md};
-  }
+  extra_.resize(parts - 1);
+  extra_diag_.resize(parts - 1);
+  for (auto& e : extra_) e.resize(n);
+  for (auto& e : extra_diag_) e.resize(n);
+  partial_.resize(parts);
+  auto total = [&](int k) {
+    double sum = 0.0;
+    for (const Partial& p : partial_) sum += p.sum[k];
+    return sum;
+  };
   const Vec3* x = mesh_->currentPositions().data();
   const Vec3* u = mesh_->velocities().data();
-  // As in multiply(): the first end's sums stay in registers along a run of its springs.
-  int run = -1;
-  Vec3 run_b = Vec3::Zero();
-  Block run_k{0, 0, 0, 0, 0, 0};
-  auto flush = [&] {
-    if (run < 0) return;
-    b_[run] += run_b;
-    addTo(&inv_diag_[run], run_k);
-  };
-  for (std::size_t i = 0; i < springs_.size(); ++i) {
-    const Spring& s = springs_[i];
-    if (s.a != run) {
-      flush();
-      run = s.a;
-      run_b.setZero();
-      run_k = {0, 0, 0, 0, 0, 0};
+  const bool extrapolate = warm_prev_.size() == warm_.size();
+
+  // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
+  // forces, their stiffness blocks (kept scaled by h^2 for the CG products) and the diagonal
+  // blocks of A for the preconditioner; the first part sums into b_ and inv_diag_.
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
+    for (int v = begin; v < end; ++v) {
+      const bool alive = mesh_->vertexAlive(v);
+      held_[v] = fixed_[v] || !alive;
+      b_[v] = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
+                    : Vec3::Zero();
+      const double md = mass_damping_ * inertia_[v];
+      inv_diag_[v] = {md, 0.0, 0.0, md, 0.0, md};
+      for (auto& e : extra_) e[v].setZero();
+      for (auto& e : extra_diag_) e[v] = {0, 0, 0, 0, 0, 0};
     }
-    const Vec3 d = x[s.b] - x[s.a];
-    const double len = d.norm();
-    Block& k = blocks_[i];
-    Vec3 f = Vec3::Zero();
-    if (len > 0) {
-      const double inv = 1.0 / len;
-      f = (s.stiffness * (len - s.rest_length) * inv) * d;
-      // The spring's stiffness block (force on a is +K (x_b - x_a) to first order):
-      // K = k (n n^T + max(0, 1 - L/|d|) (I - n n^T)). The transverse part is clamped at 0 so the
-      // block stays positive semi-definite (Choi and Ko 2002), which keeps A symmetric positive
-      // definite.
-      const Vec3 nrm = d * inv;
-      const double transverse = std::max(0.0, 1.0 - s.rest_length * inv);
-      const double kt = h2 * s.stiffness * transverse, kn = h2 * s.stiffness - kt;
-      k = {kt + kn * nrm.x() * nrm.x(), kn * nrm.x() * nrm.y(), kn * nrm.x() * nrm.z(),
-           kt + kn * nrm.y() * nrm.y(), kn * nrm.y() * nrm.z(), kt + kn * nrm.z() * nrm.z()};
-    } else {
-      const double kk = h2 * s.stiffness;
-      k = {kk, 0.0, 0.0, kk, 0.0, kk};
+  });
+  parallel([&](int part) {
+    Vec3* acc = part == 0 ? b_.data() : extra_[part - 1].data();
+    Block* diag = part == 0 ? inv_diag_.data() : extra_diag_[part - 1].data();
+    const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
+    // As in springProducts(): the first end's sums stay in registers along a run of its springs.
+    int run = -1;
+    Vec3 run_b = Vec3::Zero();
+    Block run_k{0, 0, 0, 0, 0, 0};
+    auto flush = [&] {
+      if (run < 0) return;
+      acc[run] += run_b;
+      addTo(&diag[run], run_k);
+    };
+    for (int i = begin; i < end; ++i) {
+      const Spring& s = springs_[i];
+      if (s.a != run) {
+        flush();
+        run = s.a;
+        run_b.setZero();
+        run_k = {0, 0, 0, 0, 0, 0};
+      }
+      const Vec3 d = x[s.b] - x[s.a];
+      const double len = d.norm();
+      Block& k = blocks_[i];
+      Vec3 f = Vec3::Zero();
+      if (len > 0) {
+        const double inv = 1.0 / len;
+        f = (s.stiffness * (len - s.rest_length) * inv) * d;
+        // The spring's stiffness block (force on a is +K (x_b - x_a) to first order):
+        // K = k (n n^T + max(0, 1 - L/|d|) (I - n n^T)). The transverse part is clamped at 0 so
+        // the block stays positive semi-definite (Choi and Ko 2002), which keeps A symmetric
+        // positive definite.
+        const Vec3 nrm = d * inv;
+        const double transverse = std::max(0.0, 1.0 - s.rest_length * inv);
+        const double kt = h2 * s.stiffness * transverse, kn = h2 * s.stiffness - kt;
+        k = {kt + kn * nrm.x() * nrm.x(), kn * nrm.x() * nrm.y(), kn * nrm.x() * nrm.z(),
+             kt + kn * nrm.y() * nrm.y(), kn * nrm.y() * nrm.z(), kt + kn * nrm.z() * nrm.z()};
+      } else {
+        const double kk = h2 * s.stiffness;
+        k = {kk, 0.0, 0.0, kk, 0.0, kk};
+      }
+      const Vec3 dvel = u[s.b] - u[s.a];
+      const Vec3 fb = f + inv_dt * apply(k, dvel);
+      run_b += fb;
+      acc[s.b] -= fb;
+      addTo(&run_k, k);
+      addTo(&diag[s.b], k);
     }
-    const Vec3 dvel = u[s.b] - u[s.a];
-    const Vec3 fb = f + inv_dt * apply(k, dvel);
-    run_b += fb;
-    b_[s.b] -= fb;
-    addTo(&run_k, k);
-    addTo(&inv_diag_[s.b], k);
-  }
-  flush();
-  // Warm start: the last two steps' answers extrapolated (the velocity change varies smoothly from
-  // step to step); 16.2 -> 13.1 CG iterations a step on the 20k organ while it is cut.
-  dv_ = warm_;
-  if (warm_prev_.size() == warm_.size())
-    for (std::size_t v = 0; v < dv_.size(); ++v) dv_[v] = 2.0 * warm_[v] - warm_prev_[v];
-  dv_.resize(n, Vec3::Zero());
-  for (int v = 0; v < n; ++v) {
-    b_[v] *= dt;
-    const bool held = fixed_[v] || !mesh_->vertexAlive(v);
-    if (held) {
-      b_[v].setZero();
-      dv_[v].setZero();
+    flush();
+  });
+  // The parts' sums together; the warm start: the last two steps' answers extrapolated (the
+  // velocity change varies smoothly from step to step; 16.2 -> 13.1 CG iterations a step on the
+  // 20k organ while it is cut); the start of A dv.
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
+    double weight2 = 0.0;
+    for (int v = begin; v < end; ++v) {
+      for (int e = 0; e < parts - 1; ++e) {
+        b_[v] += extra_[e][v];
+        addTo(&inv_diag_[v], extra_diag_[e][v]);
+      }
+      const bool warm = v < static_cast<int>(warm_.size());
+      dv_[v] = !warm ? Vec3::Zero() : extrapolate ? Vec3(2.0 * warm_[v] - warm_prev_[v]) : warm_[v];
+      b_[v] *= dt;
+      if (held_[v]) {
+        b_[v].setZero();
+        dv_[v].setZero();
+      }
+      // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
+      if (held_[v] || !invert(&inv_diag_[v])) inv_diag_[v] = {0, 0, 0, 0, 0, 0};
+      if (!held_[v]) weight2 += (mass_[v] * dt) * (mass_[v] * dt);
+      startProduct(v, dv_[v]);
     }
-    // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
-    if (held || !invert(&inv_diag_[v])) inv_diag_[v] = {0, 0, 0, 0, 0, 0};
-  }
-  // Preconditioned conjugate gradients, warm-started from the last step's answer.
-  multiply(dv_, &ap_);
-  double b_norm = 0.0, rz = 0.0;
-  for (int v = 0; v < n; ++v) {
-    r_[v] = b_[v] - ap_[v];
-    b_norm += b_[v].squaredNorm();
-    z_[v] = apply(inv_diag_[v], r_[v]);
-    rz += r_[v].dot(z_[v]);
-  }
-  p_ = z_;
+    partial_[part].sum[0] = weight2;
+  });
   // Converged when the residual is cg_tolerance of the right-hand side, or of the weight's impulse
   // over the step where that is larger: near equilibrium the right-hand side is small and a
   // relative tolerance alone would chase a velocity error far below 1e-6 g dt (13.1 -> 9.5 CG
   // iterations a step on the 20k organ while it is cut; positions at the end agree to 14 nm).
-  double weight2 = 0.0;
-  for (int v = 0; v < n; ++v)
-    if (!fixed_[v] && mesh_->vertexAlive(v)) weight2 += (mass_[v] * dt) * (mass_[v] * dt);
-  weight2 *= params_.gravity.squaredNorm();
+  const double weight2 = total(0) * params_.gravity.squaredNorm();
+  // Preconditioned conjugate gradients, warm-started: r = b - A dv, z = P r, p = z.
+  parallel([&](int part) { springProducts(part, dv_.data()); });
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
+    double b_norm = 0.0, rz = 0.0, rr = 0.0;
+    for (int v = begin; v < end; ++v) {
+      finishProduct(v);
+      r_[v] = b_[v] - ap_[v];
+      b_norm += b_[v].squaredNorm();
+      z_[v] = apply(inv_diag_[v], r_[v]);
+      rz += r_[v].dot(z_[v]);
+      rr += r_[v].squaredNorm();
+      p_[v] = z_[v];
+      startProduct(v, p_[v]);
+    }
+    partial_[part].sum[0] = b_norm;
+    partial_[part].sum[1] = rz;
+    partial_[part].sum[2] = rr;
+  });
+  const double b_norm = total(0);
+  double rz = total(1), rr = total(2);
   const double tolerance2 =
       params_.cg_tolerance * params_.cg_tolerance * std::max({b_norm, weight2, 1e-300});
-  double rr = 0.0;
-  for (int v = 0; v < n; ++v) rr += r_[v].squaredNorm();
   int it = 0;
   for (; it < params_.cg_max_iterations; ++it) {
     if (rr <= tolerance2) break;
-    const double pap = multiply(p_, &ap_);
+    parallel([&](int part) { springProducts(part, p_.data()); });
+    parallel([&](int part) {
+      const auto [begin, end] = rangeOf(n, part);
+      double pap = 0.0;
+      for (int v = begin; v < end; ++v) {
+        finishProduct(v);
+        pap += p_[v].dot(ap_[v]);
+      }
+      partial_[part].sum[0] = pap;
+    });
+    const double pap = total(0);
     if (!(pap > 0)) break;
     const double alpha = rz / pap;
-    double rz_next = 0.0;
-    rr = 0.0;
-    for (int v = 0; v < n; ++v) {
-      dv_[v] += alpha * p_[v];
-      r_[v] -= alpha * ap_[v];
-      z_[v] = apply(inv_diag_[v], r_[v]);
-      rz_next += r_[v].dot(z_[v]);
-      rr += r_[v].squaredNorm();
-    }
+    parallel([&](int part) {
+      const auto [begin, end] = rangeOf(n, part);
+      double rz_next = 0.0, rr_next = 0.0;
+      for (int v = begin; v < end; ++v) {
+        dv_[v] += alpha * p_[v];
+        r_[v] -= alpha * ap_[v];
+        z_[v] = apply(inv_diag_[v], r_[v]);
+        rz_next += r_[v].dot(z_[v]);
+        rr_next += r_[v].squaredNorm();
+      }
+      partial_[part].sum[0] = rz_next;
+      partial_[part].sum[1] = rr_next;
+    });
+    const double rz_next = total(0);
+    rr = total(1);
     const double beta = rz_next / rz;
     rz = rz_next;
-    for (int v = 0; v < n; ++v) p_[v] = z_[v] + beta * p_[v];
+    parallel([&](int part) {
+      const auto [begin, end] = rangeOf(n, part);
+      for (int v = begin; v < end; ++v) {
+        p_[v] = z_[v] + beta * p_[v];
+        startProduct(v, p_[v]);
+      }
+    });
   }
   last_iterations_ = it;
   total_iterations_ += it;
-  for (int v = 0; v < n; ++v) {
-    if (!mesh_->vertexAlive(v)) continue;
-    if (fixed_[v]) {
-      mesh_->velocity(v).setZero();
-      continue;
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
+    for (int v = begin; v < end; ++v) {
+      if (!mesh_->vertexAlive(v)) continue;
+      if (fixed_[v]) {
+        mesh_->velocity(v).setZero();
+        continue;
+      }
+      mesh_->velocity(v) += dv_[v];
+      mesh_->current(v) += dt * mesh_->velocity(v);
     }
-    mesh_->velocity(v) += dv_[v];
-    mesh_->current(v) += dt * mesh_->velocity(v);
-  }
+  });
   warm_prev_.swap(warm_);
   warm_.swap(dv_);
   warm_prev_.resize(warm_.size(), Vec3::Zero());
