@@ -145,3 +145,57 @@ TEST(TetGrid, CandidatesHoldEveryQueryInsideTheirBox) {
     ASSERT_EQ(filtered, found) << "query " << k << ": a tet the grid finds is not a candidate";
   }
 }
+
+// The tissue sagging far past the margin, up to 1.5 margins a tick: refresh() files anew the tets
+// around the vertices that drifted, and the queries after it stay exact without a rebuild; old entries go, so the
+// index does not grow; the refiled tets that come near a kept box join its candidates.
+TEST(TetGrid, RefreshFollowsDriftFarPastTheMarginWithoutARebuild) {
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  const double margin = 0.006;
+  TetGrid grid;
+  grid.build(mesh, 0.012, margin);
+  const Vec3 big_lo(-0.03, -0.02, 0.0), big_hi(0.03, 0.02, 0.03);
+  std::vector<int> kept;
+  grid.candidates(mesh, big_lo, big_hi, &kept);
+  std::mt19937 rng(13);
+  std::vector<int> refiled;
+  std::size_t total_refiled = 0;
+  for (int tick = 0; tick < 40; ++tick) {
+    // A sag growing with height (up to 1.5 margins a tick at the top) and a sway.
+    for (int v = 0; v < mesh.vertexSlots(); ++v) {
+      const double h = (mesh.rest(v).z() + 0.01) / 0.04;
+      mesh.current(v) += Vec3(0.3 * margin * std::sin(0.3 * tick), 0.0, -1.5 * margin * h);
+    }
+    refiled.clear();
+    grid.refresh(mesh, &refiled);
+    total_refiled += refiled.size();
+    for (int t : refiled)
+      if (grid.filedNear(mesh, t, big_lo, big_hi)) kept.push_back(t);
+    std::sort(kept.begin(), kept.end());
+    kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
+    EXPECT_FALSE(grid.needsRebuild(mesh)) << "tick " << tick;
+    expectExactQueries(mesh, grid, &rng);
+    // What the cutter keeps: every query inside the kept box is among the candidates.
+    const std::vector<int> inside = grid.query(mesh, Vec3(-0.01, -0.01, -0.05), Vec3(0.01, 0.01, 0.0));
+    const std::vector<int> truth = bruteForce(mesh, Vec3(-0.01, -0.01, -0.05), Vec3(0.01, 0.01, 0.0));
+    ASSERT_EQ(inside, truth) << "tick " << tick;
+  }
+  // The top moved 60 margins: everything there was refiled many times, the index did not grow.
+  EXPECT_GT(total_refiled, static_cast<std::size_t>(mesh.numTets()));
+  EXPECT_FALSE(grid.cluttered());
+  for (int k = 0; k < 100; ++k) {
+    std::uniform_real_distribution<double> in(0.0, 1.0);
+    Vec3 lo, hi;
+    for (int d = 0; d < 3; ++d) {
+      const double a = big_lo[d] + in(rng) * (big_hi[d] - big_lo[d]);
+      const double b = big_lo[d] + in(rng) * (big_hi[d] - big_lo[d]);
+      lo[d] = std::min(a, b);
+      hi[d] = std::max(a, b);
+    }
+    const std::vector<int> found = grid.query(mesh, lo, hi);
+    for (int t : found)
+      ASSERT_TRUE(std::binary_search(kept.begin(), kept.end(), t))
+          << "query " << k << ": tet " << t << " is not a candidate";
+  }
+}

@@ -137,6 +137,8 @@ class Cutter {
   bool replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids);
   void refreshGrid(const ChangeRecord& change);
+  /// Tets just filed (anew) that the grid could return for a box inside the cached one join it.
+  void joinNearCache(const std::vector<int>& tets);
   void rebuildGrid();
   /// The grid's query, from candidates kept while the blade stays near (see near_cache_).
   void gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out);
@@ -153,8 +155,7 @@ class Cutter {
   std::optional<BladeSegment> previous_;
   Vec3 last_motion_ = Vec3::Zero();  // the blade's last move, to push a stroke's end ahead
   double frontShift() const { return 0.6 * snap_distance_; }
-  bool stroke_start_ = false;
-  int ticks_since_grid_check_ = 0;  // no area swept yet in this stroke: the blade's line is front
+  bool stroke_start_ = false;  // no area swept yet in this stroke: the blade's line is front
   std::unordered_map<int, Pending> pending_;
   int next_pending_ = 0;
   std::vector<int> pending_of_;          // per tet slot
@@ -173,6 +174,7 @@ class Cutter {
   std::string refusal_;  // the first refused replacement of this tick
   // Scratch buffers of one tick, kept for their capacity.
   std::vector<int> near_scratch_;
+  std::vector<int> refiled_;  // tets the grid filed anew this tick (TetGrid::refresh)
   std::vector<int> swept_near_;  // this tick's sweep search, while no tet has been replaced
   Vec3 swept_lo_ = Vec3::Zero(), swept_hi_ = Vec3::Zero();
   bool swept_valid_ = false;

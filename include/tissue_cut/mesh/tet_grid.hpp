@@ -36,6 +36,14 @@ class TetGrid {
   /// it was filed (so a tet's box moved less than the margin), or dead entries pile up. Scans
   /// every vertex: call it now and then, not every tick.
   bool needsRebuild(const TetMesh& mesh) const;
+  /// Keeps the index fresh without a rebuild: every vertex that drifted more than half the
+  /// margin from where it was filed is filed there now, with the tets around it under their
+  /// current boxes (their old entries go). Appends the tets refiled to *refiled (a tet may appear
+  /// more than once). Queries made after it, before the tissue moves again, are exact however
+  /// far it moved; it scans the vertices (microseconds) and refiles only where the tissue moved.
+  void refresh(const TetMesh& mesh, std::vector<int>* refiled);
+  /// True when dead entries pile up (twice the entries of the last build): time to rebuild.
+  bool cluttered() const { return entries_ > 2 * entries_at_build_ + 1024; }
   bool empty() const { return cells_.empty(); }
 
  private:
@@ -43,6 +51,8 @@ class TetGrid {
   /// cells, which queries clamp to alike.
   std::array<int, 3> cellOf(const Vec3& x) const;
   void insert(const TetMesh& mesh, int t);
+  /// Takes tet t's latest entries out of their cells.
+  void remove(int t);
   /// Live tets filed in the cells around [lo, hi] whose filed box may have drifted into it, in id
   /// order; with `current`, only those whose current box meets [lo, hi].
   void filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool current,
@@ -65,6 +75,11 @@ class TetGrid {
   std::vector<std::vector<Entry>> cells_;  // x fastest
   std::size_t entries_ = 0, entries_at_build_ = 0;
   std::vector<Vec3> built_positions_;
+  // Per tet slot, the cells its latest entries are in (first and last corner; -1: none).
+  struct Filed {
+    std::array<int, 3> first{-1, -1, -1}, last{-1, -1, -1};
+  };
+  std::vector<Filed> filed_;
   mutable std::vector<unsigned> seen_;
   mutable unsigned stamp_ = 0;
 };

@@ -48,12 +48,50 @@ void TetGrid::insert(const TetMesh& mesh, int t) {
   }
   const auto [i0, j0, k0] = cellOf(lo);
   const auto [i1, j1, k1] = cellOf(hi);
+  if (t >= static_cast<int>(filed_.size())) filed_.resize(t + 1);
+  filed_[t] = {{i0, j0, k0}, {i1, j1, k1}};
   for (int k = k0; k <= k1; ++k)
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) {
         cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)].push_back(e);
         ++entries_;
       }
+}
+
+void TetGrid::remove(int t) {
+  if (t >= static_cast<int>(filed_.size()) || filed_[t].first[0] < 0) return;
+  const Filed f = filed_[t];
+  filed_[t] = Filed{};
+  for (int k = f.first[2]; k <= f.last[2]; ++k)
+    for (int j = f.first[1]; j <= f.last[1]; ++j)
+      for (int i = f.first[0]; i <= f.last[0]; ++i) {
+        auto& cell = cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)];
+        // A dead tet whose slot was reused may have left an entry of the same id: either one
+        // goes (queries sort and check what they find; only the count matters here).
+        const auto it =
+            std::find_if(cell.begin(), cell.end(), [t](const Entry& e) { return e.tet == t; });
+        if (it == cell.end()) continue;
+        *it = cell.back();
+        cell.pop_back();
+        --entries_;
+      }
+}
+
+void TetGrid::refresh(const TetMesh& mesh, std::vector<int>* refiled) {
+  if (cells_.empty()) return;
+  const double limit = 0.25 * margin_ * margin_;
+  const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
+  const Vec3* now = mesh.currentPositions().data();
+  for (int v = 0; v < n; ++v) {
+    if (!((now[v] - built_positions_[v]).squaredNorm() > limit) || !mesh.vertexAlive(v)) continue;
+    // Every tet filed from now on sees v within half the margin of here.
+    built_positions_[v] = now[v];
+    for (int t : mesh.vertexTets(v)) {
+      remove(t);
+      insert(mesh, t);
+      refiled->push_back(t);
+    }
+  }
 }
 
 void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
@@ -82,6 +120,7 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
   for (auto& c : cells_) c.clear();
   cells_.resize(cells);
   entries_ = 0;
+  filed_.assign(mesh.tetSlots(), Filed{});
   for (int t = 0; t < mesh.tetSlots(); ++t)
     if (mesh.tetAlive(t)) insert(mesh, t);
   entries_at_build_ = entries_;
@@ -98,7 +137,7 @@ void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change) {
 }
 
 bool TetGrid::needsRebuild(const TetMesh& mesh) const {
-  if (entries_ > 2 * entries_at_build_ + 1024) return true;
+  if (cluttered()) return true;
   // A tet filed after the build uses its vertices' positions then, each within half the margin
   // of its filed position; so no box has moved more than the margin since it was filed.
   const double limit = 0.25 * margin_ * margin_;
