@@ -5,19 +5,24 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <functional>
+#include <iterator>
 #include <numeric>
 #include <set>
 #include <stdexcept>
 #include <utility>
 #include <vector>
 
+#include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/mesh/block.hpp"
+#include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/mesh/topology.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
 #include "tissue_cut/remesh/link_condition.hpp"
+#include "tissue_cut/tissue.hpp"
 
 using namespace tissue_cut;
 
@@ -533,4 +538,110 @@ TEST(EdgeCollapse, ShapeToleranceRefusesACreaseVertexLeavingItsPlanesAtAnUnchang
   ASSERT_EQ(by_volume.refusal, CollapseRefusal::kNone);
   ASSERT_EQ(by_volume.removed, b.crease);
   EXPECT_EQ(checkCollapse(b.mesh, b.bump, b.crease, 0.08).refusal, CollapseRefusal::kBoundary);
+}
+
+namespace {
+
+// The link condition as its definition reads, with std::set: Lk(a) and Lk(b) in the mesh closed
+// by ω (-1), intersected level by level and compared with Lk(ab). Slow and plain: the oracle for
+// the library's check, which builds only the parts on the common vertices.
+bool linkConditionByDefinition(const TetMesh& mesh, int a, int b) {
+  using Simplex = std::vector<int>;
+  auto close = [](std::set<Simplex>* link, Simplex s) {
+    std::sort(s.begin(), s.end());
+    // A simplex with all its faces (a link is a complex).
+    const int n = static_cast<int>(s.size());
+    for (int mask = 1; mask < (1 << n); ++mask) {
+      Simplex f;
+      for (int i = 0; i < n; ++i)
+        if (mask & (1 << i)) f.push_back(s[i]);
+      link->insert(f);
+    }
+  };
+  // The closed star of v: its tets, and ω joined to its boundary faces.
+  auto cofaces = [&](int v) {
+    std::vector<Simplex> out;
+    for (int t : mesh.vertexTets(v)) {
+      const TetVerts& tv = mesh.tet(t);
+      out.push_back({tv[0], tv[1], tv[2], tv[3]});
+      for (int f = 0; f < 4; ++f)
+        if (mesh.neighbor(t, f) < 0)
+          out.push_back({-1, tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]});
+    }
+    return out;
+  };
+  auto linkOf = [&](const std::vector<int>& sigma) {
+    std::set<Simplex> link;
+    for (const Simplex& c : cofaces(sigma[0])) {
+      if (!std::all_of(sigma.begin(), sigma.end(), [&](int x) {
+            return std::find(c.begin(), c.end(), x) != c.end();
+          }))
+        continue;
+      Simplex rest;
+      for (int x : c)
+        if (std::find(sigma.begin(), sigma.end(), x) == sigma.end()) rest.push_back(x);
+      close(&link, rest);
+    }
+    return link;
+  };
+  const std::set<Simplex> la = linkOf({a}), lb = linkOf({b}), lab = linkOf({a, b});
+  std::set<Simplex> both;
+  std::set_intersection(la.begin(), la.end(), lb.begin(), lb.end(),
+                        std::inserter(both, both.begin()));
+  return both == lab;
+}
+
+void expectAgreementOnEveryEdge(const TetMesh& mesh, const char* name, int* refused) {
+  int edges = 0;
+  for (const auto& [a, b] : mesh.edges()) {
+    ++edges;
+    const bool holds = linkConditionByDefinition(mesh, a, b);
+    ASSERT_EQ(linkConditionHolds(mesh, a, b), holds) << name << ": edge " << a << "-" << b;
+    ASSERT_EQ(linkConditionHolds(mesh, b, a), holds) << name << ": edge " << b << "-" << a;
+    if (!holds) ++*refused;
+  }
+  EXPECT_GT(edges, 0);
+}
+
+}  // namespace
+
+TEST(LinkCondition, AgreesWithTheDefinitionOnEveryEdge) {
+  // Hand-built complexes (a tunnel, a pinch, a crack), a mesh with a hole through it, and a block
+  // cut half-way through with collapse off (an open wound, its crack front, slivers).
+  int refused = 0;
+  expectAgreementOnEveryEdge(ring(3), "ring(3)", &refused);
+  expectAgreementOnEveryEdge(ring(6), "ring(6)", &refused);
+  expectAgreementOnEveryEdge(bipyramid(), "bipyramid", &refused);
+  {
+    const MeshData cracked =
+        crack(unitBlock(4, 3, 2), [](const Vec3& p, const Vec3& q, const Vec3& r) {
+          const bool in_plane = p.z() == 1 && q.z() == 1 && r.z() == 1;
+          return in_plane && std::max({p.x(), q.x(), r.x()}) <= 2;
+        });
+    expectAgreementOnEveryEdge(TetMesh(cracked.V, cracked.T), "cracked block", &refused);
+  }
+  {
+    const MeshData holed =
+        readMesh(std::string(TISSUE_CUT_SOURCE_DIR) + "/meshes/holed_block_v41.msh");
+    expectAgreementOnEveryEdge(TetMesh(holed.V, holed.T), "holed block", &refused);
+  }
+  {
+    Config config;
+    config.physics.enabled = false;
+    config.collapse.enabled = false;
+    config.cut.blade_length = 0.025;
+    Tissue tissue(config, makeBlock());
+    const ScalpelPath path(
+        {ToolPose{0.0, Vec3(-0.07, 0.0017, 0.04), Eigen::Quaterniond::Identity()},
+         ToolPose{0.2, Vec3(0.0, 0.0017, 0.04), Eigen::Quaterniond::Identity()}});
+    for (int k = 0; k <= 200; ++k) {
+      const ToolPose p = path.at(k * 1e-3);
+      tissue.step(bladeFromPose(p.position, p.orientation, 0.025), 1e-3);
+    }
+    tissue.step(std::nullopt, 1e-3);
+    ASSERT_GT(tissue.statistics().cut.cut_tetrahedra, 20);
+    expectAgreementOnEveryEdge(tissue.mesh(), "cut block", &refused);
+  }
+  EXPECT_GT(refused, 100);  // the refusals are exercised, not only the passes
+  std::printf("edges refused by the link condition: %d\n", refused);
 }

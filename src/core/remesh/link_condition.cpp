@@ -17,17 +17,33 @@ constexpr int kOmega = -1;
 using Edge = std::array<int, 2>;
 using Triangle = std::array<int, 3>;
 
-// A link as sorted, duplicate-free lists of simplices, each simplex with sorted vertices.
-struct Link {
-  std::vector<int> vertices;
-  std::vector<Edge> edges;
-  std::vector<Triangle> triangles;
-  void clear() {
-    vertices.clear();
-    edges.clear();
-    triangles.clear();
+template <typename T>
+void makeSet(std::vector<T>* v) {
+  std::sort(v->begin(), v->end());
+  v->erase(std::unique(v->begin(), v->end()), v->end());
+}
+
+// The size of the intersection of two sorted sets.
+template <typename T>
+std::size_t commonCount(const std::vector<T>& x, const std::vector<T>& y) {
+  std::size_t n = 0;
+  for (auto i = x.begin(), j = y.begin(); i != x.end() && j != y.end();) {
+    if (*i < *j) {
+      ++i;
+    } else if (*j < *i) {
+      ++j;
+    } else {
+      ++n;
+      ++i;
+      ++j;
+    }
   }
-};
+  return n;
+}
+
+int localIndex(const TetVerts& tv, int v) {
+  return static_cast<int>(std::find(tv.begin(), tv.end(), v) - tv.begin());
+}
 
 Edge sorted(int x, int y) { return x < y ? Edge{x, y} : Edge{y, x}; }
 
@@ -37,94 +53,65 @@ Triangle sorted(int x, int y, int z) {
   return t;
 }
 
-template <typename T>
-void makeSet(std::vector<T>* v) {
-  std::sort(v->begin(), v->end());
-  v->erase(std::unique(v->begin(), v->end()), v->end());
-}
-
-// Whether the intersection of the sorted sets x and y is exactly `expected` (sorted), without
-// building it.
-template <typename T>
-bool intersectionIs(const std::vector<T>& x, const std::vector<T>& y,
-                    const std::vector<T>& expected) {
-  auto i = x.begin(), j = y.begin();
-  auto k = expected.begin();
-  while (i != x.end() && j != y.end()) {
-    if (*i < *j) {
-      ++i;
-    } else if (*j < *i) {
-      ++j;
-    } else {
-      if (k == expected.end() || *k != *i) return false;
-      ++k;
-      ++i;
-      ++j;
+// A check's scratch, kept per thread: marks on vertex slots (so that comparing the two links
+// costs the size of the two stars, with no sorting of whole links) and small lists.
+struct Scratch {
+  std::vector<unsigned> mark;
+  unsigned now = 0;
+  std::vector<int> star, common;
+  std::vector<Edge> ea, eb, eab;
+  std::vector<Triangle> ta, tb;
+  // Three fresh mark values: now (a neighbour of a), now + 1 (of both), now + 2 (in Lk(ab)).
+  void begin(int slots) {
+    if (static_cast<int>(mark.size()) < slots) mark.resize(slots, 0);
+    if (now > ~0u - 8) {
+      std::fill(mark.begin(), mark.end(), 0);
+      now = 0;
     }
+    now += 3;
   }
-  return k == expected.end();
-}
+};
 
-int localIndex(const TetVerts& tv, int v) {
-  return static_cast<int>(std::find(tv.begin(), tv.end(), v) - tv.begin());
-}
-
-// Lk(v) in the mesh closed by ω, into *out (its buffers are reused).
-void vertexLink(const TetMesh& mesh, int v, Link* out) {
-  Link& link = *out;
-  link.clear();
+// The edges and triangles of Lk(v) whose vertices all pass `kept` (ω passes when omega_kept).
+template <typename Kept>
+void linkPart(const TetMesh& mesh, int v, const Kept& kept, bool omega_kept,
+              std::vector<Edge>* edges, std::vector<Triangle>* triangles) {
+  edges->clear();
+  triangles->clear();
   for (int t : mesh.vertexTets(v)) {
     const TetVerts& tv = mesh.tet(t);
     const int i = localIndex(tv, v);
-    // Face i of the tet is the triangle opposite v; its edges and vertices come with it.
+    // Face i of the tet is the triangle opposite v.
     const int x = tv[kTetFace[i][0]], y = tv[kTetFace[i][1]], z = tv[kTetFace[i][2]];
-    link.triangles.push_back(sorted(x, y, z));
-    link.edges.push_back(sorted(x, y));
-    link.edges.push_back(sorted(y, z));
-    link.edges.push_back(sorted(x, z));
-    link.vertices.insert(link.vertices.end(), {x, y, z});
+    const bool kx = kept(x), ky = kept(y), kz = kept(z);
+    if (kx && ky) edges->push_back(sorted(x, y));
+    if (ky && kz) edges->push_back(sorted(y, z));
+    if (kx && kz) edges->push_back(sorted(x, z));
+    if (kx && ky && kz) triangles->push_back(sorted(x, y, z));
+    if (!omega_kept) continue;
     for (int f = 0; f < 4; ++f) {
       if (f == i || mesh.neighbor(t, f) >= 0) continue;
-      // Boundary face v p q: the cone ω v p q puts ω p q, ω p, ω q and ω into Lk(v).
+      // Boundary face v p q: the cone ω v p q puts ω p q, ω p and ω q into Lk(v).
       int p = -1, q = -1;
       for (int k : kTetFace[f]) {
         if (tv[k] == v) continue;
         (p < 0 ? p : q) = tv[k];
       }
-      link.triangles.push_back(sorted(kOmega, p, q));
-      link.edges.push_back(Edge{kOmega, p});
-      link.edges.push_back(Edge{kOmega, q});
-      link.vertices.push_back(kOmega);
+      const bool kp = kept(p), kq = kept(q);
+      if (kp) edges->push_back(Edge{kOmega, p});
+      if (kq) edges->push_back(Edge{kOmega, q});
+      if (kp && kq) triangles->push_back(sorted(kOmega, p, q));
     }
   }
-  makeSet(&link.vertices);
-  makeSet(&link.edges);
-  makeSet(&link.triangles);
+  makeSet(edges);
+  makeSet(triangles);
 }
 
-// Lk(ab) in the mesh closed by ω. It has no triangles: that would need a 5-simplex, or a boundary
-// simplex holding a, b and two more vertices.
-void edgeLink(const TetMesh& mesh, int a, int b, const std::vector<int>& star, Link* out) {
-  Link& link = *out;
-  link.clear();
-  for (int t : star) {
-    const TetVerts& tv = mesh.tet(t);
-    const int ia = localIndex(tv, a), ib = localIndex(tv, b);
-    int other[2], n = 0;
-    for (int k = 0; k < 4; ++k)
-      if (k != ia && k != ib) other[n++] = tv[k];
-    link.edges.push_back(sorted(other[0], other[1]));
-    link.vertices.insert(link.vertices.end(), {other[0], other[1]});
-    // Faces holding ab are the ones opposite the two other vertices.
-    for (int k = 0; k < 4; ++k) {
-      if (k == ia || k == ib || mesh.neighbor(t, k) >= 0) continue;
-      const int x = tv[k] == other[0] ? other[1] : other[0];
-      link.edges.push_back(Edge{kOmega, x});
-      link.vertices.push_back(kOmega);
-    }
-  }
-  makeSet(&link.vertices);
-  makeSet(&link.edges);
+bool hasBoundaryFaceAt(const TetMesh& mesh, int t, int v) {
+  const TetVerts& tv = mesh.tet(t);
+  for (int f = 0; f < 4; ++f)
+    if (tv[f] != v && mesh.neighbor(t, f) < 0) return true;
+  return false;
 }
 
 }  // namespace
@@ -167,20 +154,66 @@ bool isBoundaryEdge(const TetMesh& mesh, int a, int b) {
 bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
   const bool live = a >= 0 && b >= 0 && a < mesh.vertexSlots() && b < mesh.vertexSlots() &&
                     a != b && mesh.vertexAlive(a) && mesh.vertexAlive(b);
-  const std::vector<int> star = live ? mesh.edgeTets(a, b) : std::vector<int>{};
-  if (star.empty())
+  thread_local Scratch s;
+  s.star.clear();
+  if (live)
+    for (int t : mesh.vertexTets(a))
+      if (localIndex(mesh.tet(t), b) < 4) s.star.push_back(t);
+  if (s.star.empty())
     throw std::invalid_argument("linkConditionHolds: (" + std::to_string(a) + ", " +
                                 std::to_string(b) + ") is not an edge of the mesh");
-  // The links' buffers are kept between calls (the queue checks thousands of edges a cut).
-  thread_local Link la, lb, lab;
-  vertexLink(mesh, a, &la);
-  vertexLink(mesh, b, &lb);
-  edgeLink(mesh, a, b, star, &lab);
-  // Lk(ab) is always inside both links, so equality fails exactly when the ends share more.
-  static const std::vector<Triangle> kNone;
-  return intersectionIs(la.vertices, lb.vertices, lab.vertices) &&
-         intersectionIs(la.edges, lb.edges, lab.edges) &&
-         intersectionIs(la.triangles, lb.triangles, kNone);
+  // Lk(ab) lies in Lk(a) ∩ Lk(b) at every level, so each level holds exactly when the
+  // intersection is no larger. A simplex in both links has all its vertices in both, so only
+  // the parts of the links on the common vertices are built.
+  s.begin(mesh.vertexSlots());
+  const unsigned neighbour = s.now, both = s.now + 1, in_ab = s.now + 2;
+  bool a_boundary = false, b_boundary = false;
+  for (int t : mesh.vertexTets(a)) {
+    for (int v : mesh.tet(t))
+      if (v != a) s.mark[v] = neighbour;
+    a_boundary = a_boundary || hasBoundaryFaceAt(mesh, t, a);
+  }
+  s.common.clear();
+  for (int t : mesh.vertexTets(b)) {
+    for (int v : mesh.tet(t))
+      if (v != b && s.mark[v] == neighbour) {
+        s.mark[v] = both;
+        s.common.push_back(v);
+      }
+    b_boundary = b_boundary || hasBoundaryFaceAt(mesh, t, b);
+  }
+  const bool omega_common = a_boundary && b_boundary;
+  // Vertices: Lk(ab) has the other two vertices of each tet on ab, and ω when ab lies on a
+  // boundary face.
+  std::size_t in_link = 0;
+  bool ab_boundary = false;
+  s.eab.clear();
+  for (int t : s.star) {
+    const TetVerts& tv = mesh.tet(t);
+    const int ia = localIndex(tv, a), ib = localIndex(tv, b);
+    int other[2], n = 0;
+    for (int k = 0; k < 4; ++k)
+      if (k != ia && k != ib) other[n++] = tv[k];
+    for (int o : other)
+      if (s.mark[o] == both) {
+        s.mark[o] = in_ab;
+        ++in_link;
+      }
+    s.eab.push_back(sorted(other[0], other[1]));
+    // Faces holding ab are the ones opposite the two other vertices.
+    for (int k = 0; k < 4; ++k) {
+      if (k == ia || k == ib || mesh.neighbor(t, k) >= 0) continue;
+      ab_boundary = true;
+      s.eab.push_back(Edge{kOmega, tv[k] == other[0] ? other[1] : other[0]});
+    }
+  }
+  if (in_link != s.common.size() || ab_boundary != omega_common) return false;
+  // Edges and triangles, on the common vertices (now those of Lk(ab)).
+  auto kept = [&](int v) { return v == kOmega ? omega_common : s.mark[v] == in_ab; };
+  linkPart(mesh, a, kept, omega_common, &s.ea, &s.ta);
+  linkPart(mesh, b, kept, omega_common, &s.eb, &s.tb);
+  makeSet(&s.eab);
+  return commonCount(s.ea, s.eb) == s.eab.size() && commonCount(s.ta, s.tb) == 0;
 }
 
 }  // namespace tissue_cut
