@@ -3,6 +3,7 @@
 // split over MassSpringParams::threads threads) or by semi-implicit Euler. Follows every cut and collapse through TetMesh change records.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -93,9 +94,13 @@ class MassSpring {
   /// accumulator(part)), finishProduct() for every vertex (the parts' sums into ap_, held rows
   /// zero).
   void startProduct(int v, const Vec3& p);
+  /// The springs' part of the implicit step's set-up (see stepImplicit()).
+  void assembleSprings(int part, double dt);
   void springProducts(int part, const Vec3* p);
   void finishProduct(int v);
   Vec3* accumulator(int part);
+  /// The parts' shares of sum k of the last parallel loop, added in part order.
+  double partialSum(int k) const;
   bool stepImplicit(double dt);
   void stepSemiImplicit(double dt);
 
@@ -114,6 +119,7 @@ class MassSpring {
   std::vector<TetVerts> tet_copy_;                // each live tet's vertices, from the records
   // The implicit step's work space, kept between steps so that a tick allocates nothing.
   std::vector<Block> blocks_;  // per-spring h^2-scaled stiffness blocks of this step
+  std::vector<std::array<int, 2>> ends_;  // springs_' ends, packed for the CG products
   std::vector<Vec3> b_, r_, z_, p_, ap_, dv_, x0_;
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
   std::vector<unsigned char> held_;  // rows held at zero this step: fixed or dead vertices

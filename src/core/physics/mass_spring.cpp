@@ -230,6 +230,12 @@ std::pair<int, int> MassSpring::rangeOf(int count, int part) const {
   return {static_cast<int>(count * part / parts), static_cast<int>(count * (part + 1) / parts)};
 }
 
+double MassSpring::partialSum(int k) const {
+  double sum = 0.0;
+  for (const Partial& p : partial_) sum += p.sum[k];
+  return sum;
+}
+
 Vec3* MassSpring::accumulator(int part) { return part == 0 ? ap_.data() : extra_[part - 1].data(); }
 
 void MassSpring::springProducts(int part, const Vec3* pv) {
@@ -239,12 +245,12 @@ void MassSpring::springProducts(int part, const Vec3* pv) {
   // stores through out[a].
   Vec3* out = accumulator(part);
   const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
-  const Spring* springs = springs_.data();
+  const std::array<int, 2>* ends = ends_.data();  // 8 bytes a spring read, not 24
   const Block* blocks = blocks_.data();
   int run = -1;
   Vec3 pa = Vec3::Zero(), sum = Vec3::Zero();
   for (int i = begin; i < end; ++i) {
-    const int a = springs[i].a, b = springs[i].b;
+    const int a = ends[i][0], b = ends[i][1];
     if (a != run) {
       if (run >= 0) out[run] += sum;
       run = a;
@@ -271,6 +277,64 @@ void MassSpring::finishProduct(int v) {
   if (held_[v]) ap_[v].setZero();
 }
 
+void MassSpring::assembleSprings(int part, double dt) {
+  // A part's springs: their forces, their stiffness blocks (kept scaled by h^2 for the CG
+  // products) and their terms of the right-hand side and of the diagonal blocks, summed into the
+  // part's own buffers (the first part's are b_ and inv_diag_).
+  const double h2 = dt * dt, inv_dt = 1.0 / dt;
+  const Vec3* x = mesh_->currentPositions().data();
+  const Vec3* u = mesh_->velocities().data();
+  Vec3* acc = part == 0 ? b_.data() : extra_[part - 1].data();
+  Block* diag = part == 0 ? inv_diag_.data() : extra_diag_[part - 1].data();
+  const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
+  // As in springProducts(): the first end's sums stay in registers along a run of its springs.
+  int run = -1;
+  Vec3 run_b = Vec3::Zero();
+  Block run_k{0, 0, 0, 0, 0, 0};
+  auto flush = [&] {
+    if (run < 0) return;
+    acc[run] += run_b;
+    addTo(&diag[run], run_k);
+  };
+  for (int i = begin; i < end; ++i) {
+    const Spring& s = springs_[i];
+    ends_[i] = {s.a, s.b};
+    if (s.a != run) {
+      flush();
+      run = s.a;
+      run_b.setZero();
+      run_k = {0, 0, 0, 0, 0, 0};
+    }
+    const Vec3 d = x[s.b] - x[s.a];
+    const double len = d.norm();
+    Block& k = blocks_[i];
+    Vec3 f = Vec3::Zero();
+    if (len > 0) {
+      const double inv = 1.0 / len;
+      f = (s.stiffness * (len - s.rest_length) * inv) * d;
+      // The spring's stiffness block (force on a is +K (x_b - x_a) to first order):
+      // K = k (n n^T + max(0, 1 - L/|d|) (I - n n^T)). The transverse part is clamped at 0 so
+      // the block stays positive semi-definite (Choi and Ko 2002), which keeps A symmetric
+      // positive definite.
+      const Vec3 nrm = d * inv;
+      const double transverse = std::max(0.0, 1.0 - s.rest_length * inv);
+      const double kt = h2 * s.stiffness * transverse, kn = h2 * s.stiffness - kt;
+      k = {kt + kn * nrm.x() * nrm.x(), kn * nrm.x() * nrm.y(), kn * nrm.x() * nrm.z(),
+           kt + kn * nrm.y() * nrm.y(), kn * nrm.y() * nrm.z(), kt + kn * nrm.z() * nrm.z()};
+    } else {
+      const double kk = h2 * s.stiffness;
+      k = {kk, 0.0, 0.0, kk, 0.0, kk};
+    }
+    const Vec3 dvel = u[s.b] - u[s.a];
+    const Vec3 fb = f + inv_dt * apply(k, dvel);
+    run_b += fb;
+    acc[s.b] -= fb;
+    addTo(&run_k, k);
+    addTo(&diag[s.b], k);
+  }
+  flush();
+}
+
 bool MassSpring::stepImplicit(double dt) {
   // Linearly-implicit backward Euler: (M (1 + h alpha) + h^2 K) dv = h (f0 + h K v0), solved by
   // block-Jacobi preconditioned CG. Every loop runs in numThreads() parts: vertex loops over
@@ -279,24 +343,16 @@ bool MassSpring::stepImplicit(double dt) {
   // timing). With one part the sums come out exactly as a single loop makes them.
   const int n = mesh_->vertexSlots();
   const int parts = numThreads();
-  const double h2 = dt * dt, inv_dt = 1.0 / dt;
   mass_damping_ = 1.0 + dt * params_.damping;
   for (auto* v : {&b_, &r_, &z_, &p_, &ap_, &dv_}) v->resize(n);
   inv_diag_.resize(n);
   held_.resize(n);
   blocks_.resize(springs_.size());
+  ends_.resize(springs_.size());
   extra_.resize(parts - 1);
   extra_diag_.resize(parts - 1);
   for (auto& e : extra_) e.resize(n);
   for (auto& e : extra_diag_) e.resize(n);
-  partial_.resize(parts);
-  auto total = [&](int k) {
-    double sum = 0.0;
-    for (const Partial& p : partial_) sum += p.sum[k];
-    return sum;
-  };
-  const Vec3* x = mesh_->currentPositions().data();
-  const Vec3* u = mesh_->velocities().data();
   const bool extrapolate = warm_prev_.size() == warm_.size();
 
   // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
@@ -315,56 +371,7 @@ bool MassSpring::stepImplicit(double dt) {
       for (auto& e : extra_diag_) e[v] = {0, 0, 0, 0, 0, 0};
     }
   });
-  parallel([&](int part) {
-    Vec3* acc = part == 0 ? b_.data() : extra_[part - 1].data();
-    Block* diag = part == 0 ? inv_diag_.data() : extra_diag_[part - 1].data();
-    const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
-    // As in springProducts(): the first end's sums stay in registers along a run of its springs.
-    int run = -1;
-    Vec3 run_b = Vec3::Zero();
-    Block run_k{0, 0, 0, 0, 0, 0};
-    auto flush = [&] {
-      if (run < 0) return;
-      acc[run] += run_b;
-      addTo(&diag[run], run_k);
-    };
-    for (int i = begin; i < end; ++i) {
-      const Spring& s = springs_[i];
-      if (s.a != run) {
-        flush();
-        run = s.a;
-        run_b.setZero();
-        run_k = {0, 0, 0, 0, 0, 0};
-      }
-      const Vec3 d = x[s.b] - x[s.a];
-      const double len = d.norm();
-      Block& k = blocks_[i];
-      Vec3 f = Vec3::Zero();
-      if (len > 0) {
-        const double inv = 1.0 / len;
-        f = (s.stiffness * (len - s.rest_length) * inv) * d;
-        // The spring's stiffness block (force on a is +K (x_b - x_a) to first order):
-        // K = k (n n^T + max(0, 1 - L/|d|) (I - n n^T)). The transverse part is clamped at 0 so
-        // the block stays positive semi-definite (Choi and Ko 2002), which keeps A symmetric
-        // positive definite.
-        const Vec3 nrm = d * inv;
-        const double transverse = std::max(0.0, 1.0 - s.rest_length * inv);
-        const double kt = h2 * s.stiffness * transverse, kn = h2 * s.stiffness - kt;
-        k = {kt + kn * nrm.x() * nrm.x(), kn * nrm.x() * nrm.y(), kn * nrm.x() * nrm.z(),
-             kt + kn * nrm.y() * nrm.y(), kn * nrm.y() * nrm.z(), kt + kn * nrm.z() * nrm.z()};
-      } else {
-        const double kk = h2 * s.stiffness;
-        k = {kk, 0.0, 0.0, kk, 0.0, kk};
-      }
-      const Vec3 dvel = u[s.b] - u[s.a];
-      const Vec3 fb = f + inv_dt * apply(k, dvel);
-      run_b += fb;
-      acc[s.b] -= fb;
-      addTo(&run_k, k);
-      addTo(&diag[s.b], k);
-    }
-    flush();
-  });
+  parallel([&](int part) { assembleSprings(part, dt); });
   // The parts' sums together; the warm start: the last two steps' answers extrapolated (the
   // velocity change varies smoothly from step to step; 16.2 -> 13.1 CG iterations a step on the
   // 20k organ while it is cut); the start of A dv.
@@ -394,7 +401,7 @@ bool MassSpring::stepImplicit(double dt) {
   // over the step where that is larger: near equilibrium the right-hand side is small and a
   // relative tolerance alone would chase a velocity error far below 1e-6 g dt (13.1 -> 9.5 CG
   // iterations a step on the 20k organ while it is cut; positions at the end agree to 14 nm).
-  const double weight2 = total(0) * params_.gravity.squaredNorm();
+  const double weight2 = partialSum(0) * params_.gravity.squaredNorm();
   // Preconditioned conjugate gradients, warm-started: r = b - A dv, z = P r, p = z.
   parallel([&](int part) { springProducts(part, dv_.data()); });
   parallel([&](int part) {
@@ -414,8 +421,8 @@ bool MassSpring::stepImplicit(double dt) {
     partial_[part].sum[1] = rz;
     partial_[part].sum[2] = rr;
   });
-  const double b_norm = total(0);
-  double rz = total(1), rr = total(2);
+  const double b_norm = partialSum(0);
+  double rz = partialSum(1), rr = partialSum(2);
   const double tolerance2 =
       params_.cg_tolerance * params_.cg_tolerance * std::max({b_norm, weight2, 1e-300});
   int it = 0;
@@ -431,7 +438,7 @@ bool MassSpring::stepImplicit(double dt) {
       }
       partial_[part].sum[0] = pap;
     });
-    const double pap = total(0);
+    const double pap = partialSum(0);
     if (!(pap > 0)) break;
     const double alpha = rz / pap;
     parallel([&](int part) {
@@ -447,8 +454,8 @@ bool MassSpring::stepImplicit(double dt) {
       partial_[part].sum[0] = rz_next;
       partial_[part].sum[1] = rr_next;
     });
-    const double rz_next = total(0);
-    rr = total(1);
+    const double rz_next = partialSum(0);
+    rr = partialSum(1);
     const double beta = rz_next / rz;
     rz = rz_next;
     parallel([&](int part) {
@@ -505,7 +512,24 @@ std::string MassSpring::step(double dt) {
   } timer{start, &time_ms_};
   ++steps_;
   resize();
-  x0_ = mesh_->currentPositions();  // capacity kept: no allocation once grown
+  const int n = mesh_->vertexSlots();
+  x0_.resize(n);  // capacity kept: no allocation once grown
+  inertia_.resize(n);
+  partial_.resize(numThreads());
+  // The positions to roll back to; the mass and the live vertices, for the inertia floor.
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
+    double mass = 0.0, alive = 0.0;
+    for (int v = begin; v < end; ++v) {
+      x0_[v] = mesh_->current(v);
+      if (!mesh_->vertexAlive(v)) continue;
+      mass += mass_[v];
+      alive += 1.0;
+    }
+    partial_[part].sum[0] = mass;
+    partial_[part].sum[1] = alive;
+  });
+  const double total = partialSum(0), alive = partialSum(1);
   // Inertia: the mass, but at least kMinInertia of the mean vertex mass (mass scaling, as explicit
   // codes do for small elements). Repeated cuts leave micrometre tets whose corners weigh 1e-12
   // of the rest while their springs stay stiff; such rows make the system ill-conditioned: at a
@@ -513,34 +537,39 @@ std::string MassSpring::step(double dt) {
   // iterations on the ticks after a cut, at 3e-2 up to 15 (99th percentiles, tolerance 1e-6;
   // 12 at 1e-5). The floor adds 0.04% of the mass there as inertia, on 3% of the vertices (the
   // mass statistics and gravity keep the true mass; addedInertia() reports it).
-  {
-    const int n = mesh_->vertexSlots();
-    inertia_.resize(n);
-    double total = 0.0;
-    int alive = 0;
-    for (int v = 0; v < n; ++v)
-      if (mesh_->vertexAlive(v)) total += mass_[v], ++alive;
-    const double floor = alive > 0 ? kMinInertia * total / alive : 0.0;
+  const double floor = alive > 0 ? kMinInertia * total / alive : 0.0;
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
     double added = 0.0;
-    for (int v = 0; v < n; ++v) {
-      inertia_[v] = 0.0;
-      if (!mesh_->vertexAlive(v)) continue;
-      inertia_[v] = std::max(mass_[v], floor);
-      added += inertia_[v] - mass_[v];
+    for (int v = begin; v < end; ++v) {
+      inertia_[v] = mesh_->vertexAlive(v) ? std::max(mass_[v], floor) : 0.0;
+      added += inertia_[v] - mass_[v];  // dead vertices have no mass
     }
-    added_inertia_ = total > 0 ? added / total : 0.0;
-  }
+    partial_[part].sum[0] = added;
+  });
+  added_inertia_ = total > 0 ? partialSum(0) / total : 0.0;
   if (params_.implicit) {
     stepImplicit(dt);
   } else {
     stepSemiImplicit(dt);
   }
+  // The fastest vertex, and whether all are finite (the implicit step's last loop checks them).
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
+    double worst = 0.0, finite = 1.0;
+    for (int v = begin; v < end; ++v) {
+      if (!mesh_->vertexAlive(v)) continue;
+      if (!(mesh_->current(v).allFinite() && mesh_->velocity(v).allFinite())) finite = 0.0;
+      worst = std::max(worst, mesh_->velocity(v).norm());
+    }
+    partial_[part].sum[0] = worst;
+    partial_[part].sum[1] = finite;
+  });
   double worst = 0.0;
   bool finite = true;
-  for (int v = 0; v < mesh_->vertexSlots(); ++v) {
-    if (!mesh_->vertexAlive(v)) continue;
-    finite = finite && mesh_->current(v).allFinite() && mesh_->velocity(v).allFinite();
-    worst = std::max(worst, mesh_->velocity(v).norm());
+  for (const Partial& p : partial_) {
+    worst = std::max(worst, p.sum[0]);
+    finite = finite && p.sum[1] > 0.0;
   }
   if (finite && worst <= params_.max_speed) return "";
   // Roll back and damp: the tissue keeps its last good shape, at rest.

@@ -12,7 +12,7 @@ namespace tissue_cut {
 namespace {
 
 // A helper keeps looking for the next job this long before it sleeps: longer than the gaps
-// between the jobs of one step (microseconds), shorter than a tick's idle time. Past the first
+// between the jobs of one step (microseconds), short against a tick's idle time. Past the first
 // few microseconds it yields between looks, so that a machine with more runnable threads than
 // cores (tests side by side) still gets on.
 constexpr std::chrono::microseconds kSpinFor(100);
@@ -30,7 +30,8 @@ void relax(int looks) {
 
 }  // namespace
 
-WorkerTeam::WorkerTeam(int size) {
+WorkerTeam::WorkerTeam(int size) : taken_(new std::atomic<std::uint64_t>[std::max(size, 1)]) {
+  for (int i = 0; i < std::max(size, 1); ++i) taken_[i].store(0, std::memory_order_relaxed);
   for (int i = 1; i < std::max(size, 1); ++i) helpers_.emplace_back([this, i] { helperLoop(i); });
 }
 
@@ -38,7 +39,7 @@ WorkerTeam::~WorkerTeam() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_.store(true, std::memory_order_relaxed);
-    generation_.fetch_add(1, std::memory_order_release);
+    job_number_.fetch_add(1, std::memory_order_release);
   }
   wake_.notify_all();
   for (std::thread& t : helpers_) t.join();
@@ -49,42 +50,59 @@ int WorkerTeam::usable(int wanted) {
   return std::max(1, cores > 0 ? std::min(wanted, cores) : wanted);
 }
 
+void WorkerTeam::runPart(int index, std::uint64_t job) {
+  // Taken for this job already, or for a later one (a helper that saw this job too late: the
+  // job is over, so job_ may be another's by now).
+  std::uint64_t taken = taken_[index].load(std::memory_order_acquire);
+  while (taken < job)
+    if (taken_[index].compare_exchange_weak(taken, job, std::memory_order_acq_rel,
+                                            std::memory_order_acquire)) {
+      (*job_)(index);
+      done_.fetch_add(1, std::memory_order_release);
+      return;
+    }
+}
+
 void WorkerTeam::run(const std::function<void(int)>& part) {
   if (helpers_.empty()) {
     part(0);
     return;
   }
   job_ = &part;
-  remaining_.store(static_cast<int>(helpers_.size()), std::memory_order_relaxed);
+  done_.store(0, std::memory_order_relaxed);
+  std::uint64_t job;
   {
-    // Under the mutex, so that a helper about to sleep either sees the new generation or is
-    // already waiting when the notification comes.
+    // Under the mutex, so that a helper about to sleep either sees the new job or is already
+    // waiting when the notification comes.
     std::lock_guard<std::mutex> lock(mutex_);
-    generation_.fetch_add(1, std::memory_order_release);
+    job = job_number_.load(std::memory_order_relaxed) + 1;
+    job_number_.store(job, std::memory_order_release);
   }
   wake_.notify_all();
-  part(0);
-  for (int looks = 0; remaining_.load(std::memory_order_acquire) > 0; ++looks) relax(looks);
+  runPart(0, job);
+  // The parts no helper has taken yet are the caller's.
+  for (int i = 1; i < size(); ++i)
+    if (taken_[i].load(std::memory_order_relaxed) < job) runPart(i, job);
+  for (int looks = 0; done_.load(std::memory_order_acquire) < size(); ++looks) relax(looks);
 }
 
 void WorkerTeam::helperLoop(int index) {
   std::uint64_t seen = 0;
   for (;;) {
     const auto since = std::chrono::steady_clock::now();
-    std::uint64_t now = generation_.load(std::memory_order_acquire);
+    std::uint64_t now = job_number_.load(std::memory_order_acquire);
     for (int looks = 0; now == seen; ++looks) {
       if ((looks & 63) == 63 && std::chrono::steady_clock::now() - since > kSpinFor) {
         std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return generation_.load(std::memory_order_acquire) != seen; });
+        wake_.wait(lock, [&] { return job_number_.load(std::memory_order_acquire) != seen; });
       } else {
         relax(looks);
       }
-      now = generation_.load(std::memory_order_acquire);
+      now = job_number_.load(std::memory_order_acquire);
     }
     seen = now;
-    if (stop_.load(std::memory_order_relaxed)) return;  // set before the generation changed
-    (*job_)(index);
-    remaining_.fetch_sub(1, std::memory_order_release);
+    if (stop_.load(std::memory_order_relaxed)) return;  // set before the job number changed
+    runPart(index, now);
   }
 }
 
