@@ -89,16 +89,13 @@ class MassSpring {
   void parallel(const std::function<void(int)>& part);
   /// The part'th of numThreads() nearly equal ranges of [0, count).
   std::pair<int, int> rangeOf(int count, int part) const;
-  /// A p with A = (1 + h alpha) M + h^2 K, in three steps: startProduct() for every vertex (the
-  /// mass term), springProducts() for every part (its springs' terms into its own buffer:
-  /// accumulator(part)), finishProduct() for every vertex (the parts' sums into ap_, held rows
-  /// zero).
-  void startProduct(int v, const Vec3& p);
+  /// A p with A = (1 + h alpha) M + h^2 K, in two steps: springProducts() for every part (its
+  /// springs' terms into its own buffer, acc_[part]), then finishProduct() for every vertex (the
+  /// mass term and the parts' sums into ap_, held rows zero).
+  void springProducts(int part, const Vec3* p);
+  void finishProduct(int v, const Vec3& p);
   /// The springs' part of the implicit step's set-up (see stepImplicit()).
   void assembleSprings(int part, double dt);
-  void springProducts(int part, const Vec3* p);
-  void finishProduct(int v);
-  Vec3* accumulator(int part);
   /// The parts' shares of sum k of the last parallel loop, added in part order.
   double partialSum(int k) const;
   bool stepImplicit(double dt);
@@ -117,15 +114,18 @@ class MassSpring {
   std::vector<Vec3> warm_;                        // last velocity change, per vertex
   std::vector<Vec3> warm_prev_;                   // the one before (warm start by extrapolation)
   std::vector<TetVerts> tet_copy_;                // each live tet's vertices, from the records
+  std::vector<int> follow_vertices_;              // follow()'s scratch, kept for its capacity
+  std::vector<std::pair<int, int>> follow_edges_;
   // The implicit step's work space, kept between steps so that a tick allocates nothing.
   std::vector<Block> blocks_;  // per-spring h^2-scaled stiffness blocks of this step
   std::vector<std::array<int, 2>> ends_;  // springs_' ends, packed for the CG products
   std::vector<Vec3> b_, r_, z_, p_, ap_, dv_, x0_;
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
   std::vector<unsigned char> held_;  // rows held at zero this step: fixed or dead vertices
-  // The parts after the first sum their springs' terms here (per part, per vertex).
-  std::vector<std::vector<Vec3>> extra_;
-  std::vector<std::vector<Block>> extra_diag_;
+  // Each part sums its springs' terms here (per part, per vertex; zeroed and filled by the
+  // thread that runs the part, so that the buffer stays in that core's cache).
+  std::vector<std::vector<Vec3>> acc_;
+  std::vector<std::vector<Block>> diag_acc_;
   struct alignas(64) Partial {  // one part's share of a dot product, a cache line of its own
     double sum[3];
   };

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <set>
 #include <sstream>
 
 namespace tissue_cut {
@@ -118,7 +117,10 @@ void MassSpring::updateSpring(int a, int b) {
   const long long key = edgeKey(a, b);
   double volume = 0.0;
   if (mesh_->vertexAlive(a) && mesh_->vertexAlive(b))
-    for (int t : mesh_->edgeTets(a, b)) volume += mesh_->restVolume(t);
+    for (int t : mesh_->vertexTets(a)) {  // the tets on ab, as edgeTets() lists them
+      const TetVerts& tv = mesh_->tet(t);
+      if (std::find(tv.begin(), tv.end(), b) != tv.end()) volume += mesh_->restVolume(t);
+    }
   auto it = spring_of_.find(key);
   if (volume <= 0.0) {
     if (it == spring_of_.end()) return;
@@ -153,12 +155,15 @@ void MassSpring::follow(const ChangeRecord& change) {
   resize();
   if (tet_copy_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
     tet_copy_.resize(mesh_->tetSlots(), {-1, -1, -1, -1});
-  std::set<int> vertices;
-  std::set<std::pair<int, int>> edges;
+  // The vertices and edges of the tets that went or came, each once, in increasing order.
+  std::vector<int>& vertices = follow_vertices_;
+  std::vector<std::pair<int, int>>& edges = follow_edges_;
+  vertices.clear();
+  edges.clear();
   auto collect = [&](const TetVerts& tv) {
-    for (int v : tv) vertices.insert(v);
+    for (int v : tv) vertices.push_back(v);
     for (const auto& e : kTetEdge)
-      edges.insert({std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]])});
+      edges.emplace_back(std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]]));
   };
   for (int t : change.removed_tets)
     if (tet_copy_[t][0] >= 0) collect(tet_copy_[t]);
@@ -180,6 +185,10 @@ void MassSpring::follow(const ChangeRecord& change) {
     warm_[v] = Vec3::Zero();
     if (v < static_cast<int>(warm_prev_.size())) warm_prev_[v] = Vec3::Zero();
   }
+  std::sort(vertices.begin(), vertices.end());
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   for (int v : vertices) updateMass(v);
   for (const auto& [a, b] : edges) updateSpring(a, b);
 }
@@ -236,14 +245,15 @@ double MassSpring::partialSum(int k) const {
   return sum;
 }
 
-Vec3* MassSpring::accumulator(int part) { return part == 0 ? ap_.data() : extra_[part - 1].data(); }
-
 void MassSpring::springProducts(int part, const Vec3* pv) {
   // h^2 K (p_a - p_b) of this part's springs, added at a and taken at b. Springs are kept sorted
   // by their first end (mostly: new ones go last), so the first end's sum stays in registers along
   // a run and only the second end is scattered; that breaks the chain of dependent loads and
   // stores through out[a].
-  Vec3* out = accumulator(part);
+  // The part's own buffer, zeroed by the thread that fills it (it stays in that core's cache).
+  std::vector<Vec3>& buffer = acc_[part];
+  std::fill(buffer.begin(), buffer.end(), Vec3::Zero());
+  Vec3* out = buffer.data();
   const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
   const std::array<int, 2>* ends = ends_.data();  // 8 bytes a spring read, not 24
   const Block* blocks = blocks_.data();
@@ -264,28 +274,25 @@ void MassSpring::springProducts(int part, const Vec3* pv) {
   if (run >= 0) out[run] += sum;
 }
 
-void MassSpring::startProduct(int v, const Vec3& p) {
-  // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b): the mass term in the first part's
-  // sums, the other parts' start at zero.
-  ap_[v] = (mass_damping_ * inertia_[v]) * p;
-  for (std::vector<Vec3>& e : extra_) e[v].setZero();
-}
-
-void MassSpring::finishProduct(int v) {
-  // Held rows (fixed vertices) are zero; dead vertices have no mass and no springs.
-  for (const std::vector<Vec3>& e : extra_) ap_[v] += e[v];
-  if (held_[v]) ap_[v].setZero();
+void MassSpring::finishProduct(int v, const Vec3& p) {
+  // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), the springs' terms summed part by
+  // part. Held rows (fixed vertices) are zero; dead vertices have no mass and no springs.
+  Vec3 sum = (mass_damping_ * inertia_[v]) * p;
+  for (const std::vector<Vec3>& e : acc_) sum += e[v];
+  ap_[v] = held_[v] ? Vec3::Zero() : sum;
 }
 
 void MassSpring::assembleSprings(int part, double dt) {
   // A part's springs: their forces, their stiffness blocks (kept scaled by h^2 for the CG
   // products) and their terms of the right-hand side and of the diagonal blocks, summed into the
-  // part's own buffers (the first part's are b_ and inv_diag_).
+  // part's own buffers (zeroed here, by the thread that fills them).
   const double h2 = dt * dt, inv_dt = 1.0 / dt;
   const Vec3* x = mesh_->currentPositions().data();
   const Vec3* u = mesh_->velocities().data();
-  Vec3* acc = part == 0 ? b_.data() : extra_[part - 1].data();
-  Block* diag = part == 0 ? inv_diag_.data() : extra_diag_[part - 1].data();
+  std::fill(acc_[part].begin(), acc_[part].end(), Vec3::Zero());
+  std::fill(diag_acc_[part].begin(), diag_acc_[part].end(), Block{0, 0, 0, 0, 0, 0});
+  Vec3* acc = acc_[part].data();
+  Block* diag = diag_acc_[part].data();
   const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
   // As in springProducts(): the first end's sums stay in registers along a run of its springs.
   int run = -1;
@@ -340,7 +347,7 @@ bool MassSpring::stepImplicit(double dt) {
   // block-Jacobi preconditioned CG. Every loop runs in numThreads() parts: vertex loops over
   // ranges of vertices, spring loops over ranges of springs, each part summing into its own
   // buffer (the parts' buffers are added in a fixed order, so a step's result does not depend on
-  // timing). With one part the sums come out exactly as a single loop makes them.
+  // timing).
   const int n = mesh_->vertexSlots();
   const int parts = numThreads();
   mass_damping_ = 1.0 + dt * params_.damping;
@@ -349,51 +356,42 @@ bool MassSpring::stepImplicit(double dt) {
   held_.resize(n);
   blocks_.resize(springs_.size());
   ends_.resize(springs_.size());
-  extra_.resize(parts - 1);
-  extra_diag_.resize(parts - 1);
-  for (auto& e : extra_) e.resize(n);
-  for (auto& e : extra_diag_) e.resize(n);
+  acc_.resize(parts);
+  diag_acc_.resize(parts);
+  for (auto& e : acc_) e.resize(n);
+  for (auto& e : diag_acc_) e.resize(n);
   const bool extrapolate = warm_prev_.size() == warm_.size();
 
   // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
   // forces, their stiffness blocks (kept scaled by h^2 for the CG products) and the diagonal
-  // blocks of A for the preconditioner; the first part sums into b_ and inv_diag_.
-  parallel([&](int part) {
-    const auto [begin, end] = rangeOf(n, part);
-    for (int v = begin; v < end; ++v) {
-      const bool alive = mesh_->vertexAlive(v);
-      held_[v] = fixed_[v] || !alive;
-      b_[v] = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
-                    : Vec3::Zero();
-      const double md = mass_damping_ * inertia_[v];
-      inv_diag_[v] = {md, 0.0, 0.0, md, 0.0, md};
-      for (auto& e : extra_) e[v].setZero();
-      for (auto& e : extra_diag_) e[v] = {0, 0, 0, 0, 0, 0};
-    }
-  });
+  // blocks of A for the preconditioner.
   parallel([&](int part) { assembleSprings(part, dt); });
-  // The parts' sums together; the warm start: the last two steps' answers extrapolated (the
-  // velocity change varies smoothly from step to step; 16.2 -> 13.1 CG iterations a step on the
-  // 20k organ while it is cut); the start of A dv.
+  // The vertices' own terms and the parts' sums together; the warm start: the last two steps'
+  // answers extrapolated (the velocity change varies smoothly from step to step; 16.2 -> 13.1 CG
+  // iterations a step on the 20k organ while it is cut).
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
     double weight2 = 0.0;
     for (int v = begin; v < end; ++v) {
-      for (int e = 0; e < parts - 1; ++e) {
-        b_[v] += extra_[e][v];
-        addTo(&inv_diag_[v], extra_diag_[e][v]);
+      const bool alive = mesh_->vertexAlive(v);
+      held_[v] = fixed_[v] || !alive;
+      Vec3 b = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
+                     : Vec3::Zero();
+      const double md = mass_damping_ * inertia_[v];
+      Block diag{md, 0.0, 0.0, md, 0.0, md};
+      for (int q = 0; q < parts; ++q) {
+        b += acc_[q][v];
+        addTo(&diag, diag_acc_[q][v]);
       }
+      b_[v] = held_[v] ? Vec3::Zero() : Vec3(dt * b);
       const bool warm = v < static_cast<int>(warm_.size());
-      dv_[v] = !warm ? Vec3::Zero() : extrapolate ? Vec3(2.0 * warm_[v] - warm_prev_[v]) : warm_[v];
-      b_[v] *= dt;
-      if (held_[v]) {
-        b_[v].setZero();
-        dv_[v].setZero();
-      }
+      dv_[v] = held_[v] || !warm ? Vec3::Zero()
+               : extrapolate     ? Vec3(2.0 * warm_[v] - warm_prev_[v])
+                                 : warm_[v];
       // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
-      if (held_[v] || !invert(&inv_diag_[v])) inv_diag_[v] = {0, 0, 0, 0, 0, 0};
+      if (held_[v] || !invert(&diag)) diag = {0, 0, 0, 0, 0, 0};
+      inv_diag_[v] = diag;
       if (!held_[v]) weight2 += (mass_[v] * dt) * (mass_[v] * dt);
-      startProduct(v, dv_[v]);
     }
     partial_[part].sum[0] = weight2;
   });
@@ -408,14 +406,13 @@ bool MassSpring::stepImplicit(double dt) {
     const auto [begin, end] = rangeOf(n, part);
     double b_norm = 0.0, rz = 0.0, rr = 0.0;
     for (int v = begin; v < end; ++v) {
-      finishProduct(v);
+      finishProduct(v, dv_[v]);
       r_[v] = b_[v] - ap_[v];
       b_norm += b_[v].squaredNorm();
       z_[v] = apply(inv_diag_[v], r_[v]);
       rz += r_[v].dot(z_[v]);
       rr += r_[v].squaredNorm();
       p_[v] = z_[v];
-      startProduct(v, p_[v]);
     }
     partial_[part].sum[0] = b_norm;
     partial_[part].sum[1] = rz;
@@ -433,7 +430,7 @@ bool MassSpring::stepImplicit(double dt) {
       const auto [begin, end] = rangeOf(n, part);
       double pap = 0.0;
       for (int v = begin; v < end; ++v) {
-        finishProduct(v);
+        finishProduct(v, p_[v]);
         pap += p_[v].dot(ap_[v]);
       }
       partial_[part].sum[0] = pap;
@@ -460,10 +457,7 @@ bool MassSpring::stepImplicit(double dt) {
     rz = rz_next;
     parallel([&](int part) {
       const auto [begin, end] = rangeOf(n, part);
-      for (int v = begin; v < end; ++v) {
-        p_[v] = z_[v] + beta * p_[v];
-        startProduct(v, p_[v]);
-      }
+      for (int v = begin; v < end; ++v) p_[v] = z_[v] + beta * p_[v];
     });
   }
   last_iterations_ = it;
