@@ -38,8 +38,8 @@ class TetGrid {
   bool needsRebuild(const TetMesh& mesh) const;
   /// Keeps the index fresh without a rebuild: every vertex that drifted more than half the
   /// margin from where it was filed is filed there now, with the tets around it under their
-  /// current boxes (their old entries go). Appends the tets refiled to *refiled (a tet may appear
-  /// more than once). Queries made after it, before the tissue moves again, are exact however
+  /// current boxes (their old entries go). Appends the tets refiled to *refiled (each once, in
+  /// increasing order). Queries made after it, before the tissue moves again, are exact however
   /// far it moved; it scans the vertices (microseconds) and refiles only where the tissue moved.
   void refresh(const TetMesh& mesh, std::vector<int>* refiled);
   /// True when dead entries pile up (twice the entries of the last build): time to rebuild.

@@ -958,9 +958,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     grid_.refresh(*mesh_, &refiled_);
     if (grid_.cluttered()) {
       rebuildGrid();
-    } else if (!refiled_.empty()) {
-      std::sort(refiled_.begin(), refiled_.end());
-      refiled_.erase(std::unique(refiled_.begin(), refiled_.end()), refiled_.end());
+    } else {
       joinNearCache(refiled_);
     }
   }

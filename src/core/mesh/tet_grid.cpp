@@ -82,15 +82,19 @@ void TetGrid::refresh(const TetMesh& mesh, std::vector<int>* refiled) {
   const double limit = 0.25 * margin_ * margin_;
   const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
   const Vec3* now = mesh.currentPositions().data();
+  const std::size_t first = refiled->size();
   for (int v = 0; v < n; ++v) {
     if (!((now[v] - built_positions_[v]).squaredNorm() > limit) || !mesh.vertexAlive(v)) continue;
     // Every tet filed from now on sees v within half the margin of here.
     built_positions_[v] = now[v];
-    for (int t : mesh.vertexTets(v)) {
-      remove(t);
-      insert(mesh, t);
-      refiled->push_back(t);
-    }
+    refiled->insert(refiled->end(), mesh.vertexTets(v).begin(), mesh.vertexTets(v).end());
+  }
+  // Each tet once, however many of its vertices drifted (the tissue sags as a whole).
+  std::sort(refiled->begin() + first, refiled->end());
+  refiled->erase(std::unique(refiled->begin() + first, refiled->end()), refiled->end());
+  for (std::size_t i = first; i < refiled->size(); ++i) {
+    remove((*refiled)[i]);
+    insert(mesh, (*refiled)[i]);
   }
 }
 
