@@ -25,14 +25,20 @@ std::array<Vec3, 4> restCorners(const TetMesh& mesh, int t, int v, const Vec3& p
   return c;
 }
 
-// Worst rest Q of v's star with v at p; -1 when a tet is not sound.
-double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const Vec3& p) {
+// Worst rest Q of v's star with v at p; -1 when a tet is not sound. Stops at the first tet no
+// better than `floor` (its Q is returned): the caller only wants to know whether p beats it.
+// `first` is looked at first (the tet that was worst before: the likeliest to stop it).
+double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const Vec3& p,
+                 double floor, int first) {
   double worst = 1.0;
-  for (int t : star) {
+  auto look = [&](int t) {
     const auto c = restCorners(mesh, t, v, p);
-    if (!isSoundTet(c[0], c[1], c[2], c[3])) return -1.0;
-    worst = std::min(worst, tetQuality(c[0], c[1], c[2], c[3]));
-  }
+    if (!isSoundTet(c[0], c[1], c[2], c[3])) return worst = -1.0;
+    return worst = std::min(worst, tetQuality(c[0], c[1], c[2], c[3]));
+  };
+  if (look(first) <= floor) return worst;
+  for (int t : star)
+    if (t != first && look(t) <= floor) return worst;
   return worst;
 }
 
@@ -139,7 +145,7 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
     for (const Vec3& target : targets)
       for (double step : {1.0, 0.5, 0.25, 0.125}) {
         const Vec3 p = project(out.freedom, dir, origin, from + step * (target - from));
-        const double q = worstWith(*mesh, star, v, p);
+        const double q = worstWith(*mesh, star, v, p, best_q + 1e-12, worst_t);
         if (q > best_q + 1e-12) {
           best_q = q;
           best = p;
