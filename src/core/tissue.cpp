@@ -147,6 +147,10 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   if (config_.physics.enabled) {
     const std::string unstable = physics_->step(dt);
     if (!unstable.empty()) warning += (warning.empty() ? "" : "; ") + unstable;
+    // The cutter's tet index looks for drift only once the moves could add up to enough.
+    cutter_->tissueMoved(physics_->lastMaxDisplacement());
+  } else {
+    cutter_->tissueMoved(0.0);
   }
   return warning;
 }

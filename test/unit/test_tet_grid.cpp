@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "tissue_cut/mesh/block.hpp"
@@ -168,7 +169,7 @@ TEST(TetGrid, RefreshFollowsDriftFarPastTheMarginWithoutARebuild) {
       mesh.current(v) += Vec3(0.3 * margin * std::sin(0.3 * tick), 0.0, -1.5 * margin * h);
     }
     refiled.clear();
-    grid.refresh(mesh, &refiled);
+    grid.refresh(mesh, HUGE_VAL, &refiled);
     total_refiled += refiled.size();
     for (int t : refiled)
       if (grid.filedNear(mesh, t, big_lo, big_hi)) kept.push_back(t);
@@ -198,4 +199,46 @@ TEST(TetGrid, RefreshFollowsDriftFarPastTheMarginWithoutARebuild) {
       ASSERT_TRUE(std::binary_search(kept.begin(), kept.end(), t))
           << "query " << k << ": tet " << t << " is not a candidate";
   }
+}
+
+// Told how far the tissue moved each tick, refresh() looks at the vertices only when the moves
+// add up to half the margin, and the queries stay exact.
+TEST(TetGrid, RefreshToldTheMotionScansOnlyWhenTheMovesAddUp) {
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  const double margin = 0.006;
+  TetGrid grid;
+  grid.build(mesh, 0.012, margin);
+  std::mt19937 rng(17);
+  std::vector<int> refiled;
+  // Nothing moved: nothing to do.
+  grid.refresh(mesh, 0.0, &refiled);
+  EXPECT_TRUE(refiled.empty());
+  int ticks_with_refiles = 0;
+  for (int tick = 0; tick < 60; ++tick) {
+    // Everything moves 0.1 of the margin a tick, along a slowly turning direction.
+    const Vec3 step = 0.1 * margin * Vec3(std::cos(0.05 * tick), 0.0, -std::sin(0.05 * tick));
+    for (int v = 0; v < mesh.vertexSlots(); ++v) mesh.current(v) += step;
+    refiled.clear();
+    grid.refresh(mesh, step.norm(), &refiled);
+    if (!refiled.empty()) ++ticks_with_refiles;
+    expectExactQueries(mesh, grid, &rng);
+  }
+  // Six margins in all, refiled about every five ticks (half the margin each time).
+  EXPECT_GE(ticks_with_refiles, 8);
+  EXPECT_LE(ticks_with_refiles, 14);
+  // It trusts the bound: told nothing moved, it does not look (the caller's promise broken here
+  // on purpose); told the move, it finds every vertex; a bound that is not known (NaN) looks too.
+  for (int v = 0; v < mesh.vertexSlots(); ++v) mesh.current(v) += Vec3(0.6 * margin, 0.0, 0.0);
+  refiled.clear();
+  grid.refresh(mesh, 0.0, &refiled);
+  EXPECT_TRUE(refiled.empty());
+  grid.refresh(mesh, 0.6 * margin, &refiled);
+  EXPECT_EQ(refiled.size(), static_cast<std::size_t>(mesh.numTets()));
+  expectExactQueries(mesh, grid, &rng);
+  for (int v = 0; v < mesh.vertexSlots(); ++v) mesh.current(v) += Vec3(0.6 * margin, 0.0, 0.0);
+  refiled.clear();
+  grid.refresh(mesh, std::nan(""), &refiled);
+  EXPECT_EQ(refiled.size(), static_cast<std::size_t>(mesh.numTets()));
+  expectExactQueries(mesh, grid, &rng);
 }

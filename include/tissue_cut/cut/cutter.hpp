@@ -60,6 +60,10 @@ class Cutter {
 
   /// Tells the cutter about topology changes made by others (collapse), after they happened.
   void follow(const ChangeRecord& change);
+  /// Tells the cutter how far any vertex may have moved (physics) since it was last told; it then
+  /// looks for drift in its tet index only when the moves add up to enough. A cutter never told
+  /// assumes anything may have moved and looks every tick.
+  void tissueMoved(double distance);
 
   /// The cutter's own invariants on top of TetMesh::validate(): every pending tet's children are
   /// live and fill it. "" when fine.
@@ -175,6 +179,8 @@ class Cutter {
   // Scratch buffers of one tick, kept for their capacity.
   std::vector<int> near_scratch_;
   std::vector<int> refiled_;  // tets the grid filed anew this tick (TetGrid::refresh)
+  double moved_ = 0.0;        // how far vertices may have moved since the grid's last refresh
+  bool told_motion_ = false;  // tissueMoved() was called: moved_ is known
   std::vector<int> swept_near_;  // this tick's sweep search, while no tet has been replaced
   Vec3 swept_lo_ = Vec3::Zero(), swept_hi_ = Vec3::Zero();
   bool swept_valid_ = false;

@@ -40,8 +40,11 @@ class TetGrid {
   /// margin from where it was filed is filed there now, with the tets around it under their
   /// current boxes (their old entries go). Appends the tets refiled to *refiled (each once, in
   /// increasing order). Queries made after it, before the tissue moves again, are exact however
-  /// far it moved; it scans the vertices (microseconds) and refiles only where the tissue moved.
-  void refresh(const TetMesh& mesh, std::vector<int>* refiled);
+  /// far it moved. `moved` bounds how far any vertex moved since the last call (infinity: not
+  /// known); the vertices are scanned only when the moves since the last scan could have taken
+  /// one past half the margin (a vertex moved otherwise must have had its tets refiled by an
+  /// update()).
+  void refresh(const TetMesh& mesh, double moved, std::vector<int>* refiled);
   /// True when dead entries pile up (twice the entries of the last build): time to rebuild.
   bool cluttered() const { return entries_ > 2 * entries_at_build_ + 1024; }
   bool empty() const { return cells_.empty(); }
@@ -80,6 +83,9 @@ class TetGrid {
     std::array<int, 3> first{-1, -1, -1}, last{-1, -1, -1};
   };
   std::vector<Filed> filed_;
+  // How far a vertex may be from where it was filed, as far as refresh() knows: the farthest at
+  // the last scan, plus the moves since.
+  double drift_bound_ = 0.0;
   mutable std::vector<unsigned> seen_;
   mutable unsigned stamp_ = 0;
 };

@@ -56,6 +56,9 @@ class MassSpring {
   int lastIterations() const { return last_iterations_; }
   /// Inertia the floor of the last step added (see step()), as a fraction of the total mass.
   double addedInertia() const { return added_inertia_; }
+  /// How far the last step moved any vertex [m] (dt times the fastest speed; infinity when it was
+  /// rolled back; 0 before the first step).
+  double lastMaxDisplacement() const { return last_max_displacement_; }
   /// Steps taken, their CG iterations in total, and the time spent in step() [ms].
   long long steps() const { return steps_; }
   long long totalIterations() const { return total_iterations_; }
@@ -136,6 +139,7 @@ class MassSpring {
   long long steps_ = 0, total_iterations_ = 0;
   double time_ms_ = 0.0;
   double added_inertia_ = 0.0;
+  double last_max_displacement_ = 0.0;
 };
 
 }  // namespace tissue_cut

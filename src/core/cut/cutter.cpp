@@ -63,6 +63,11 @@ void Cutter::reset() {
   rebuildGrid();
 }
 
+void Cutter::tissueMoved(double distance) {
+  told_motion_ = true;
+  moved_ += distance >= 0.0 ? distance : HUGE_VAL;  // NaN: anything may have moved
+}
+
 void Cutter::rebuildGrid() {
   grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
   near_cache_valid_ = false;  // the candidates were the old grid's
@@ -955,7 +960,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   // pile up (rebuilds on drift took 4-6 ms a tick on the sagging 20k organ).
   if (blade || previous_) {
     refiled_.clear();
-    grid_.refresh(*mesh_, &refiled_);
+    grid_.refresh(*mesh_, told_motion_ ? moved_ : HUGE_VAL, &refiled_);
+    moved_ = 0.0;
     if (grid_.cluttered()) {
       rebuildGrid();
     } else {

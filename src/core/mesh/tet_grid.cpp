@@ -77,18 +77,26 @@ void TetGrid::remove(int t) {
       }
 }
 
-void TetGrid::refresh(const TetMesh& mesh, std::vector<int>* refiled) {
+void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refiled) {
   if (cells_.empty()) return;
+  drift_bound_ += moved >= 0.0 ? moved : HUGE_VAL;  // not known (or NaN): anything may have moved
+  if (!(drift_bound_ > 0.5 * margin_)) return;  // no vertex can be past half the margin yet
   const double limit = 0.25 * margin_ * margin_;
   const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
   const Vec3* now = mesh.currentPositions().data();
   const std::size_t first = refiled->size();
+  double farthest = 0.0;  // squared, of the vertices left where they are filed
   for (int v = 0; v < n; ++v) {
-    if (!((now[v] - built_positions_[v]).squaredNorm() > limit) || !mesh.vertexAlive(v)) continue;
+    const double d2 = (now[v] - built_positions_[v]).squaredNorm();
+    if (!(d2 > limit) || !mesh.vertexAlive(v)) {
+      if (mesh.vertexAlive(v)) farthest = std::max(farthest, d2);
+      continue;
+    }
     // Every tet filed from now on sees v within half the margin of here.
     built_positions_[v] = now[v];
     refiled->insert(refiled->end(), mesh.vertexTets(v).begin(), mesh.vertexTets(v).end());
   }
+  drift_bound_ = std::sqrt(farthest);
   // Each tet once, however many of its vertices drifted (the tissue sags as a whole).
   std::sort(refiled->begin() + first, refiled->end());
   refiled->erase(std::unique(refiled->begin() + first, refiled->end()), refiled->end());
@@ -129,6 +137,7 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
     if (mesh.tetAlive(t)) insert(mesh, t);
   entries_at_build_ = entries_;
   built_positions_ = mesh.currentPositions();
+  drift_bound_ = 0.0;
 }
 
 void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change) {

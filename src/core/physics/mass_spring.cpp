@@ -565,7 +565,11 @@ std::string MassSpring::step(double dt) {
     worst = std::max(worst, p.sum[0]);
     finite = finite && p.sum[1] > 0.0;
   }
-  if (finite && worst <= params_.max_speed) return "";
+  if (finite && worst <= params_.max_speed) {
+    last_max_displacement_ = dt * worst;
+    return "";
+  }
+  last_max_displacement_ = HUGE_VAL;
   // Roll back and damp: the tissue keeps its last good shape, at rest.
   mesh_->currentPositions() = x0_;
   for (Vec3& u : mesh_->velocities()) u.setZero();
