@@ -128,9 +128,10 @@ class MassSpring {
   // Each part sums its springs' terms here (per part, per vertex; zeroed and filled by the
   // thread that runs the part, so that the buffer stays in that core's cache).
   std::vector<std::vector<Vec3>> acc_;
+  std::vector<std::vector<Vec3>> start_acc_;  // the springs' part of A dv for the warm start
   std::vector<std::vector<Block>> diag_acc_;
-  struct alignas(64) Partial {  // one part's share of a dot product, a cache line of its own
-    double sum[3];
+  struct alignas(64) Partial {  // one part's shares of dot products, a cache line of its own
+    double sum[4];
   };
   std::vector<Partial> partial_;
   std::unique_ptr<WorkerTeam> team_;  // none: one thread

@@ -284,23 +284,28 @@ void MassSpring::finishProduct(int v, const Vec3& p) {
 
 void MassSpring::assembleSprings(int part, double dt) {
   // A part's springs: their forces, their stiffness blocks (kept scaled by h^2 for the CG
-  // products) and their terms of the right-hand side and of the diagonal blocks, summed into the
+  // products), and their terms of the right-hand side, of the diagonal blocks and of A dv for
+  // the warm start dv (so that CG's first residual needs no pass of its own), summed into the
   // part's own buffers (zeroed here, by the thread that fills them).
   const double h2 = dt * dt, inv_dt = 1.0 / dt;
   const Vec3* x = mesh_->currentPositions().data();
   const Vec3* u = mesh_->velocities().data();
+  const Vec3* w = dv_.data();
   std::fill(acc_[part].begin(), acc_[part].end(), Vec3::Zero());
+  std::fill(start_acc_[part].begin(), start_acc_[part].end(), Vec3::Zero());
   std::fill(diag_acc_[part].begin(), diag_acc_[part].end(), Block{0, 0, 0, 0, 0, 0});
   Vec3* acc = acc_[part].data();
+  Vec3* start = start_acc_[part].data();
   Block* diag = diag_acc_[part].data();
   const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
   // As in springProducts(): the first end's sums stay in registers along a run of its springs.
   int run = -1;
-  Vec3 run_b = Vec3::Zero();
+  Vec3 run_b = Vec3::Zero(), run_w = Vec3::Zero();
   Block run_k{0, 0, 0, 0, 0, 0};
   auto flush = [&] {
     if (run < 0) return;
     acc[run] += run_b;
+    start[run] += run_w;
     addTo(&diag[run], run_k);
   };
   for (int i = begin; i < end; ++i) {
@@ -310,6 +315,7 @@ void MassSpring::assembleSprings(int part, double dt) {
       flush();
       run = s.a;
       run_b.setZero();
+      run_w.setZero();
       run_k = {0, 0, 0, 0, 0, 0};
     }
     const Vec3 d = x[s.b] - x[s.a];
@@ -336,6 +342,9 @@ void MassSpring::assembleSprings(int part, double dt) {
     const Vec3 fb = f + inv_dt * apply(k, dvel);
     run_b += fb;
     acc[s.b] -= fb;
+    const Vec3 kw = apply(k, Vec3(w[s.a] - w[s.b]));  // as springProducts() adds for dv
+    run_w += kw;
+    start[s.b] -= kw;
     addTo(&run_k, k);
     addTo(&diag[s.b], k);
   }
@@ -357,69 +366,71 @@ bool MassSpring::stepImplicit(double dt) {
   blocks_.resize(springs_.size());
   ends_.resize(springs_.size());
   acc_.resize(parts);
+  start_acc_.resize(parts);
   diag_acc_.resize(parts);
   for (auto& e : acc_) e.resize(n);
+  for (auto& e : start_acc_) e.resize(n);
   for (auto& e : diag_acc_) e.resize(n);
   const bool extrapolate = warm_prev_.size() == warm_.size();
 
-  // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
-  // forces, their stiffness blocks (kept scaled by h^2 for the CG products) and the diagonal
-  // blocks of A for the preconditioner.
-  parallel([&](int part) { assembleSprings(part, dt); });
-  // The vertices' own terms and the parts' sums together; the warm start: the last two steps'
-  // answers extrapolated (the velocity change varies smoothly from step to step; 16.2 -> 13.1 CG
-  // iterations a step on the 20k organ while it is cut).
+  // The warm start: the last two steps' answers extrapolated (the velocity change varies
+  // smoothly from step to step; 16.2 -> 13.1 CG iterations a step on the 20k organ while it is
+  // cut); zero where the row is held (fixed or dead vertices).
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
-    double weight2 = 0.0;
     for (int v = begin; v < end; ++v) {
-      const bool alive = mesh_->vertexAlive(v);
-      held_[v] = fixed_[v] || !alive;
-      Vec3 b = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
-                     : Vec3::Zero();
-      const double md = mass_damping_ * inertia_[v];
-      Block diag{md, 0.0, 0.0, md, 0.0, md};
-      for (int q = 0; q < parts; ++q) {
-        b += acc_[q][v];
-        addTo(&diag, diag_acc_[q][v]);
-      }
-      b_[v] = held_[v] ? Vec3::Zero() : Vec3(dt * b);
+      held_[v] = fixed_[v] || !mesh_->vertexAlive(v);
       const bool warm = v < static_cast<int>(warm_.size());
       dv_[v] = held_[v] || !warm ? Vec3::Zero()
                : extrapolate     ? Vec3(2.0 * warm_[v] - warm_prev_[v])
                                  : warm_[v];
+    }
+  });
+  // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
+  // forces, their stiffness blocks (kept scaled by h^2 for the CG products), the diagonal blocks
+  // of A for the preconditioner and the springs' part of A dv.
+  parallel([&](int part) { assembleSprings(part, dt); });
+  // The vertices' own terms and the parts' sums together, and CG's start: r = b - A dv, z = P r,
+  // p = z.
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
+    double weight2 = 0.0, b_norm = 0.0, rz = 0.0, rr = 0.0;
+    for (int v = begin; v < end; ++v) {
+      const bool alive = mesh_->vertexAlive(v);
+      Vec3 b = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
+                     : Vec3::Zero();
+      const double md = mass_damping_ * inertia_[v];
+      Block diag{md, 0.0, 0.0, md, 0.0, md};
+      Vec3 a = md * dv_[v];
+      for (int q = 0; q < parts; ++q) {
+        b += acc_[q][v];
+        a += start_acc_[q][v];
+        addTo(&diag, diag_acc_[q][v]);
+      }
+      b_[v] = held_[v] ? Vec3::Zero() : Vec3(dt * b);
       // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
       if (held_[v] || !invert(&diag)) diag = {0, 0, 0, 0, 0, 0};
       inv_diag_[v] = diag;
+      r_[v] = held_[v] ? Vec3::Zero() : Vec3(b_[v] - a);
+      z_[v] = apply(inv_diag_[v], r_[v]);
+      p_[v] = z_[v];
       if (!held_[v]) weight2 += (mass_[v] * dt) * (mass_[v] * dt);
+      b_norm += b_[v].squaredNorm();
+      rz += r_[v].dot(z_[v]);
+      rr += r_[v].squaredNorm();
     }
     partial_[part].sum[0] = weight2;
+    partial_[part].sum[1] = b_norm;
+    partial_[part].sum[2] = rz;
+    partial_[part].sum[3] = rr;
   });
   // Converged when the residual is cg_tolerance of the right-hand side, or of the weight's impulse
   // over the step where that is larger: near equilibrium the right-hand side is small and a
   // relative tolerance alone would chase a velocity error far below 1e-6 g dt (13.1 -> 9.5 CG
   // iterations a step on the 20k organ while it is cut; positions at the end agree to 14 nm).
   const double weight2 = partialSum(0) * params_.gravity.squaredNorm();
-  // Preconditioned conjugate gradients, warm-started: r = b - A dv, z = P r, p = z.
-  parallel([&](int part) { springProducts(part, dv_.data()); });
-  parallel([&](int part) {
-    const auto [begin, end] = rangeOf(n, part);
-    double b_norm = 0.0, rz = 0.0, rr = 0.0;
-    for (int v = begin; v < end; ++v) {
-      finishProduct(v, dv_[v]);
-      r_[v] = b_[v] - ap_[v];
-      b_norm += b_[v].squaredNorm();
-      z_[v] = apply(inv_diag_[v], r_[v]);
-      rz += r_[v].dot(z_[v]);
-      rr += r_[v].squaredNorm();
-      p_[v] = z_[v];
-    }
-    partial_[part].sum[0] = b_norm;
-    partial_[part].sum[1] = rz;
-    partial_[part].sum[2] = rr;
-  });
-  const double b_norm = partialSum(0);
-  double rz = partialSum(1), rr = partialSum(2);
+  const double b_norm = partialSum(1);
+  double rz = partialSum(2), rr = partialSum(3);
   const double tolerance2 =
       params_.cg_tolerance * params_.cg_tolerance * std::max({b_norm, weight2, 1e-300});
   int it = 0;
