@@ -4,8 +4,11 @@ of an ellipsoid organ (semi-axes 15 x 10 x 8 cm) of about 5k, 20k and 80k tets w
 prints the medians over --repeats runs of each:
 
   tick p50/p99/max [ms]   every tick of a run with physics (implicit, CG) and collapse, 1 kHz:
-                          wall time, and the thread's CPU time (the same without waiting for a
-                          core; on a busy machine the two differ)
+                          wall time, and the tick thread's CPU time (the same without waiting
+                          for a core; on a busy machine the two differ; with 2 threads the
+                          helper's CPU time is not in it, the tick thread's waits for it are)
+  threads                 physics/threads of that run: 1 (one core, as issue 7's targets are
+                          set) and 2 (the default; the machine's second core)
   RTF                     simulated time over wall time of that run
   CG it, ns/spring/it     CG iterations per step; step time per spring per CG iteration
   us/cut tet              (t.Repl + t.EC) / #CuT of a run without physics (as in the paper; the
@@ -14,6 +17,7 @@ prints the medians over --repeats runs of each:
   4x ratio                us/cut tet of the 80k mesh over that of the 20k mesh
 
 usage: scripts/bench_table.py [--build build] [--repeats 5] [--sizes 5000 20000 80000]
+                              [--threads 1 2]
 Meshes, path and configuration go to BUILD/bench/ (made once, by meshes/src/make_organ.py and
 scripts/make_path.py). Needs gmsh and tetgen. Run it on a quiet machine: it measures time."""
 import argparse
@@ -65,6 +69,7 @@ def main():
     p.add_argument('--build', default=os.path.join(ROOT, 'build'))
     p.add_argument('--repeats', type=int, default=5)
     p.add_argument('--sizes', type=int, nargs='+', default=[5000, 20000, 80000])
+    p.add_argument('--threads', type=int, nargs='+', default=[1, 2])
     a = p.parse_args()
     replay_bin = os.path.join(a.build, 'devel/lib/tissue_cut/cut_replay')
     if not os.path.exists(replay_bin):
@@ -76,35 +81,48 @@ def main():
     config = os.path.join(out, 'bench.yaml')
     with open(config, 'w') as f:
         f.write(CONFIG)
-    rows = []
+    threaded = {}
+    for t in a.threads:
+        threaded[t] = os.path.join(out, 'bench_threads%d.yaml' % t)
+        with open(threaded[t], 'w') as f:
+            f.write(CONFIG + '  threads: %d\n' % t)
+    rows, physics_rows = [], []
     for n in a.sizes:
         prefix = os.path.join(out, 'organ%d' % n)
         if not os.path.exists(prefix + '.ele'):
             run([sys.executable, os.path.join(ROOT, 'meshes', 'src', 'make_organ.py'), prefix,
                  '--tets', str(n)])
-        full, plain = [], []
+        full = {t: [] for t in a.threads}
+        plain = []
         for k in range(a.repeats):
-            full.append(replay(a.build, prefix + '.node', path, config,
-                               os.path.join(out, 'full%d_%d.json' % (n, k)), True))
+            for t in a.threads:
+                full[t].append(replay(a.build, prefix + '.node', path, threaded[t],
+                                      os.path.join(out, 'full%d_t%d_%d.json' % (n, t, k)), True))
             plain.append(replay(a.build, prefix + '.node', path, config,
                                 os.path.join(out, 'plain%d_%d.json' % (n, k)), False))
+        for t in a.threads:
+            runs = full[t]
+            physics_rows.append({
+                'tets': runs[0]['initial']['tetrahedra'],
+                'springs': runs[0]['physics']['springs'],
+                'threads': runs[0]['physics'].get('threads', t),
+                'cut_full': median([s['cut']['cut_tetrahedra'] for s in runs]),
+                'p50': median([s['ticks']['p50_ms'] for s in runs]),
+                'p99': median([s['ticks']['p99_ms'] for s in runs]),
+                'max': median([s['ticks']['max_ms'] for s in runs]),
+                'cpu50': median([s['ticks']['cpu_p50_ms'] for s in runs]),
+                'cpu99': median([s['ticks']['cpu_p99_ms'] for s in runs]),
+                'cpumax': median([s['ticks']['cpu_max_ms'] for s in runs]),
+                'rtf': median([s['ticks']['real_time_factor'] for s in runs]),
+                'cg': median([s['physics']['cg_iterations_mean'] for s in runs]),
+                'ns': median([s['physics']['ns_per_spring_iteration'] for s in runs]),
+                'physics_ms': median([s['physics']['time_ms'] / max(1, s['physics']['steps'])
+                                      for s in runs]),
+            })
         cut_cost = [(s['cut']['time_ms'] + s['collapse']['time_ms']) * 1000.0 /
                     max(1, s['cut']['cut_tetrahedra']) for s in plain]
         rows.append({
-            'tets': full[0]['initial']['tetrahedra'],
-            'springs': full[0]['physics']['springs'],
-            'cut_full': median([s['cut']['cut_tetrahedra'] for s in full]),
-            'p50': median([s['ticks']['p50_ms'] for s in full]),
-            'p99': median([s['ticks']['p99_ms'] for s in full]),
-            'max': median([s['ticks']['max_ms'] for s in full]),
-            'cpu50': median([s['ticks']['cpu_p50_ms'] for s in full]),
-            'cpu99': median([s['ticks']['cpu_p99_ms'] for s in full]),
-            'cpumax': median([s['ticks']['cpu_max_ms'] for s in full]),
-            'rtf': median([s['ticks']['real_time_factor'] for s in full]),
-            'cg': median([s['physics']['cg_iterations_mean'] for s in full]),
-            'ns': median([s['physics']['ns_per_spring_iteration'] for s in full]),
-            'physics_ms': median([s['physics']['time_ms'] / max(1, s['physics']['steps'])
-                                  for s in full]),
+            'tets': plain[0]['initial']['tetrahedra'],
             'cut_plain': median([s['cut']['cut_tetrahedra'] for s in plain]),
             'repl_ms': median([s['cut']['time_ms'] for s in plain]),
             'ec_ms': median([s['collapse']['time_ms'] for s in plain]),
@@ -117,14 +135,15 @@ def main():
           (platform.processor() or platform.machine(), os.cpu_count(), platform.platform(),
            a.repeats))
     print('With physics and collapse:')
-    print('| tets | springs | cut tets | tick p50/p99/max ms (wall) | tick p50/p99/max ms (CPU) | '
-          'RTF | physics ms/step | CG it/step | ns/spring/it |')
-    print('|---|---|---|---|---|---|---|---|---|')
-    for r in rows:
-        print('| %d | %d | %d | %.2f / %.2f / %.2f | %.2f / %.2f / %.2f | %.2f | %.2f | %.1f | '
-              '%.2f |' %
-              (r['tets'], r['springs'], r['cut_full'], r['p50'], r['p99'], r['max'], r['cpu50'],
-               r['cpu99'], r['cpumax'], r['rtf'], r['physics_ms'], r['cg'], r['ns']))
+    print('| tets | springs | threads | cut tets | tick p50/p99/max ms (wall) | '
+          'tick p50/p99/max ms (CPU) | RTF | physics ms/step | CG it/step | ns/spring/it |')
+    print('|---|---|---|---|---|---|---|---|---|---|')
+    for r in physics_rows:
+        print('| %d | %d | %d | %d | %.2f / %.2f / %.2f | %.2f / %.2f / %.2f | %.2f | %.2f | '
+              '%.1f | %.2f |' %
+              (r['tets'], r['springs'], r['threads'], r['cut_full'], r['p50'], r['p99'],
+               r['max'], r['cpu50'], r['cpu99'], r['cpumax'], r['rtf'], r['physics_ms'], r['cg'],
+               r['ns']))
     print()
     print('Without physics (collapse on):')
     print('| tets | cut tets | t.Repl ms | t.EC ms | us per cut tet (t.Repl + t.EC) | '
