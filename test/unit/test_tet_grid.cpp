@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/tet_grid.hpp"
@@ -38,6 +39,35 @@ void drift(TetMesh* mesh, double distance, std::mt19937* rng) {
   }
 }
 
+// The built-in block with a grid over it (12 mm cells, a margin of 6 mm), as the tests use it.
+struct BlockGrid {
+  static constexpr double kMargin = 0.006;
+  MeshData block = makeBlock();
+  TetMesh mesh{block.V, block.T};
+  TetGrid grid;
+  BlockGrid() { grid.build(mesh, 0.012, kMargin); }
+};
+
+// A box the cutter would keep the grid's candidates for (TetGrid::candidates), and those.
+const Vec3 kKeptLo(-0.03, -0.02, 0.0), kKeptHi(0.03, 0.02, 0.03);
+std::vector<int> keptCandidates(const BlockGrid& g) {
+  std::vector<int> kept;
+  g.grid.candidates(g.mesh, kKeptLo, kKeptHi, &kept);
+  return kept;
+}
+
+// A random box inside [lo, hi].
+std::pair<Vec3, Vec3> boxInside(const Vec3& lo, const Vec3& hi, std::mt19937* rng) {
+  std::uniform_real_distribution<double> in(0.0, 1.0);
+  Vec3 a, b;
+  for (int d = 0; d < 3; ++d) {
+    const double x = lo[d] + in(*rng) * (hi[d] - lo[d]), y = lo[d] + in(*rng) * (hi[d] - lo[d]);
+    a[d] = std::min(x, y);
+    b[d] = std::max(x, y);
+  }
+  return {a, b};
+}
+
 // Random thin boxes like one tick's sweep, some reaching outside the block.
 void expectExactQueries(const TetMesh& mesh, const TetGrid& grid, std::mt19937* rng) {
   std::uniform_real_distribution<double> x(-0.06, 0.06), y(-0.04, 0.04), z(-0.01, 0.04),
@@ -53,21 +83,19 @@ void expectExactQueries(const TetMesh& mesh, const TetGrid& grid, std::mt19937* 
 }  // namespace
 
 TEST(TetGrid, QueriesAreExactAndInIdOrder) {
-  const MeshData block = makeBlock();
-  const TetMesh mesh(block.V, block.T);
-  TetGrid grid;
-  grid.build(mesh, 0.012, 0.006);
+  const BlockGrid g;
+  const TetMesh& mesh = g.mesh;
+  const TetGrid& grid = g.grid;
   std::mt19937 rng(7);
   expectExactQueries(mesh, grid, &rng);
   EXPECT_FALSE(grid.needsRebuild(mesh));
 }
 
 TEST(TetGrid, DriftBelowHalfTheMarginNeedsNoRebuildAndStaysExact) {
-  const MeshData block = makeBlock();
-  TetMesh mesh(block.V, block.T);
-  const double margin = 0.006;
-  TetGrid grid;
-  grid.build(mesh, 0.012, margin);
+  BlockGrid g;
+  TetMesh& mesh = g.mesh;
+  TetGrid& grid = g.grid;
+  const double margin = BlockGrid::kMargin;
   std::mt19937 rng(11);
   drift(&mesh, 0.49 * margin, &rng);
   EXPECT_FALSE(grid.needsRebuild(mesh));
@@ -77,10 +105,9 @@ TEST(TetGrid, DriftBelowHalfTheMarginNeedsNoRebuildAndStaysExact) {
 }
 
 TEST(TetGrid, ReplacedTetsAreFoundAfterAnUpdate) {
-  const MeshData block = makeBlock();
-  TetMesh mesh(block.V, block.T);
-  TetGrid grid;
-  grid.build(mesh, 0.012, 0.006);
+  BlockGrid g;
+  TetMesh& mesh = g.mesh;
+  TetGrid& grid = g.grid;
   // Split tet 100 at its centroid into four.
   ChangeRecord change;
   const int m = test::splitAt(&mesh, 100, {0.25, 0.25, 0.25, 0.25}, &change);
@@ -97,20 +124,16 @@ TEST(TetGrid, ReplacedTetsAreFoundAfterAnUpdate) {
 // inside it returns, after drift below the rebuild limit too; a tet filed later joins them when
 // filedNear says so, and a query filtered from them equals the grid's.
 TEST(TetGrid, CandidatesHoldEveryQueryInsideTheirBox) {
-  const MeshData block = makeBlock();
-  TetMesh mesh(block.V, block.T);
-  const double margin = 0.006;
-  TetGrid grid;
-  grid.build(mesh, 0.012, margin);
-  const Vec3 big_lo(-0.03, -0.02, 0.0), big_hi(0.03, 0.02, 0.03);
-  std::vector<int> kept;
-  grid.candidates(mesh, big_lo, big_hi, &kept);
+  BlockGrid g;
+  TetMesh& mesh = g.mesh;
+  TetGrid& grid = g.grid;
+  const double margin = BlockGrid::kMargin;
+  std::vector<int> kept = keptCandidates(g);
   ASSERT_TRUE(std::is_sorted(kept.begin(), kept.end()));
   ASSERT_EQ(std::adjacent_find(kept.begin(), kept.end()), kept.end()) << "each tet once";
   // Far fewer than all: the candidates are local.
   EXPECT_LT(kept.size(), static_cast<std::size_t>(mesh.numTets()));
   std::mt19937 rng(5);
-  std::uniform_real_distribution<double> in(0.0, 1.0);
   drift(&mesh, 0.49 * margin, &rng);
   ASSERT_FALSE(grid.needsRebuild(mesh));
   // Split a tet inside the box; its pieces are filed and join the candidates.
@@ -121,7 +144,7 @@ TEST(TetGrid, CandidatesHoldEveryQueryInsideTheirBox) {
   grid.update(mesh, change);
   int joined = 0;
   for (int t : change.added_tets)
-    if (grid.filedNear(mesh, t, big_lo, big_hi)) {
+    if (grid.filedNear(mesh, t, kKeptLo, kKeptHi)) {
       kept.insert(std::lower_bound(kept.begin(), kept.end(), t), t);
       ++joined;
     }
@@ -129,13 +152,7 @@ TEST(TetGrid, CandidatesHoldEveryQueryInsideTheirBox) {
   EXPECT_FALSE(grid.filedNear(mesh, change.added_tets[0], Vec3(1, 1, 1), Vec3(2, 2, 2)));
   kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
   for (int k = 0; k < 200; ++k) {
-    Vec3 lo, hi;
-    for (int d = 0; d < 3; ++d) {
-      const double a = big_lo[d] + in(rng) * (big_hi[d] - big_lo[d]);
-      const double b = big_lo[d] + in(rng) * (big_hi[d] - big_lo[d]);
-      lo[d] = std::min(a, b);
-      hi[d] = std::max(a, b);
-    }
+    const auto [lo, hi] = boxInside(kKeptLo, kKeptHi, &rng);
     const std::vector<int> found = grid.query(mesh, lo, hi);
     ASSERT_EQ(found, bruteForce(mesh, lo, hi)) << "query " << k;
     std::vector<int> filtered;
@@ -148,17 +165,15 @@ TEST(TetGrid, CandidatesHoldEveryQueryInsideTheirBox) {
 }
 
 // The tissue sagging far past the margin, up to 1.5 margins a tick: refresh() files anew the tets
-// around the vertices that drifted, and the queries after it stay exact without a rebuild; old entries go, so the
-// index does not grow; the refiled tets that come near a kept box join its candidates.
+// around the vertices that drifted, and the queries after it stay exact without a rebuild; old
+// entries go, so the index does not grow; the refiled tets that come near a kept box join its
+// candidates.
 TEST(TetGrid, RefreshFollowsDriftFarPastTheMarginWithoutARebuild) {
-  const MeshData block = makeBlock();
-  TetMesh mesh(block.V, block.T);
-  const double margin = 0.006;
-  TetGrid grid;
-  grid.build(mesh, 0.012, margin);
-  const Vec3 big_lo(-0.03, -0.02, 0.0), big_hi(0.03, 0.02, 0.03);
-  std::vector<int> kept;
-  grid.candidates(mesh, big_lo, big_hi, &kept);
+  BlockGrid g;
+  TetMesh& mesh = g.mesh;
+  TetGrid& grid = g.grid;
+  const double margin = BlockGrid::kMargin;
+  std::vector<int> kept = keptCandidates(g);
   std::mt19937 rng(13);
   std::vector<int> refiled;
   std::size_t total_refiled = 0;
@@ -172,28 +187,20 @@ TEST(TetGrid, RefreshFollowsDriftFarPastTheMarginWithoutARebuild) {
     grid.refresh(mesh, HUGE_VAL, &refiled);
     total_refiled += refiled.size();
     for (int t : refiled)
-      if (grid.filedNear(mesh, t, big_lo, big_hi)) kept.push_back(t);
+      if (grid.filedNear(mesh, t, kKeptLo, kKeptHi)) kept.push_back(t);
     std::sort(kept.begin(), kept.end());
     kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
     EXPECT_FALSE(grid.needsRebuild(mesh)) << "tick " << tick;
     expectExactQueries(mesh, grid, &rng);
     // What the cutter keeps: every query inside the kept box is among the candidates.
-    const std::vector<int> inside = grid.query(mesh, Vec3(-0.01, -0.01, -0.05), Vec3(0.01, 0.01, 0.0));
-    const std::vector<int> truth = bruteForce(mesh, Vec3(-0.01, -0.01, -0.05), Vec3(0.01, 0.01, 0.0));
-    ASSERT_EQ(inside, truth) << "tick " << tick;
+    const Vec3 low(-0.01, -0.01, -0.05), high(0.01, 0.01, 0.0);  // where the top sags to
+    ASSERT_EQ(grid.query(mesh, low, high), bruteForce(mesh, low, high)) << "tick " << tick;
   }
   // The top moved 60 margins: everything there was refiled many times, the index did not grow.
   EXPECT_GT(total_refiled, static_cast<std::size_t>(mesh.numTets()));
   EXPECT_FALSE(grid.cluttered());
   for (int k = 0; k < 100; ++k) {
-    std::uniform_real_distribution<double> in(0.0, 1.0);
-    Vec3 lo, hi;
-    for (int d = 0; d < 3; ++d) {
-      const double a = big_lo[d] + in(rng) * (big_hi[d] - big_lo[d]);
-      const double b = big_lo[d] + in(rng) * (big_hi[d] - big_lo[d]);
-      lo[d] = std::min(a, b);
-      hi[d] = std::max(a, b);
-    }
+    const auto [lo, hi] = boxInside(kKeptLo, kKeptHi, &rng);
     const std::vector<int> found = grid.query(mesh, lo, hi);
     for (int t : found)
       ASSERT_TRUE(std::binary_search(kept.begin(), kept.end(), t))
@@ -204,11 +211,10 @@ TEST(TetGrid, RefreshFollowsDriftFarPastTheMarginWithoutARebuild) {
 // Told how far the tissue moved each tick, refresh() looks at the vertices only when the moves
 // add up to half the margin, and the queries stay exact.
 TEST(TetGrid, RefreshToldTheMotionScansOnlyWhenTheMovesAddUp) {
-  const MeshData block = makeBlock();
-  TetMesh mesh(block.V, block.T);
-  const double margin = 0.006;
-  TetGrid grid;
-  grid.build(mesh, 0.012, margin);
+  BlockGrid g;
+  TetMesh& mesh = g.mesh;
+  TetGrid& grid = g.grid;
+  const double margin = BlockGrid::kMargin;
   std::mt19937 rng(17);
   std::vector<int> refiled;
   // Nothing moved: nothing to do.

@@ -1,6 +1,7 @@
 // MassSpring: lumped masses and edge springs on the live tets, integrated by linearly-implicit
 // backward Euler (matrix-free, Jacobi-preconditioned conjugate gradients, warm-started; its loops
-// split over MassSpringParams::threads threads) or by semi-implicit Euler. Follows every cut and collapse through TetMesh change records.
+// split over MassSpringParams::threads threads) or by semi-implicit Euler. Follows every cut and
+// collapse through TetMesh change records.
 #pragma once
 
 #include <array>
