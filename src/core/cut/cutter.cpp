@@ -497,25 +497,35 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
   };
-  std::unordered_map<int, int> index;
-  for (int i = 0; i < n; ++i) index[star[i]] = i;
+  // The star's tets by id, to find a neighbour's place in it.
+  std::vector<std::pair<int, int>> index(n);
+  for (int i = 0; i < n; ++i) index[i] = {star[i], i};
+  std::sort(index.begin(), index.end());
+  // A face is marked only if each of its vertices is on a marked face.
+  const bool any_marked = marked_at_.count(v) > 0;
   for (int i = 0; i < n; ++i) {
     const TetVerts& tv = mesh_->tet(star[i]);
     for (int f = 0; f < 4; ++f) {
       if (tv[f] == v) continue;  // the face opposite v does not hold it
       const int u = mesh_->neighbor(star[i], f);
       if (u < 0) continue;
-      auto it = index.find(u);
-      if (it == index.end()) continue;
-      if (marked_.count(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]])))
+      const auto it = std::lower_bound(index.begin(), index.end(), std::make_pair(u, -1));
+      if (it == index.end() || it->first != u) continue;
+      if (any_marked &&
+          marked_.count(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]])))
         continue;
       parent[find(i)] = find(it->second);
     }
   }
-  std::map<int, std::vector<int>> by_root;
-  for (int i = 0; i < n; ++i) by_root[find(i)].push_back(star[i]);
+  // The groups in the order of their roots' places in the star, each in star order.
+  std::vector<int> group_of(n, -1);
   std::vector<std::vector<int>> groups;
-  for (auto& kv : by_root) groups.push_back(std::move(kv.second));
+  for (int r = 0; r < n; ++r)
+    if (parent[r] == r) {
+      group_of[r] = static_cast<int>(groups.size());
+      groups.emplace_back();
+    }
+  for (int i = 0; i < n; ++i) groups[group_of[find(i)]].push_back(star[i]);
   return groups;
 }
 
