@@ -34,7 +34,8 @@ class TetGrid {
   bool filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) const;
   /// True when the index has gone stale: a vertex drifted more than half the margin from where
   /// it was filed (so a tet's box moved less than the margin), or dead entries pile up. Scans
-  /// every vertex: call it now and then, not every tick.
+  /// every vertex. (The cutter keeps the index fresh with refresh(); this checks the invariant
+  /// refresh() keeps, for tests and callers that rebuild instead.)
   bool needsRebuild(const TetMesh& mesh) const;
   /// Keeps the index fresh without a rebuild: every vertex that drifted more than half the
   /// margin from where it was filed is filed there now, with the tets around it under their

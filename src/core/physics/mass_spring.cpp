@@ -98,7 +98,7 @@ void MassSpring::resize() {
   mass_.resize(n, 0.0);
   fixed_.resize(n, 0);
   warm_.resize(n, Vec3::Zero());
-  warm_prev_.resize(n, Vec3::Zero());  // new slots: nothing to extrapolate from (see follow())
+  warm_prev_.resize(n, Vec3::Zero());  // the same slots: every step extrapolates (see follow())
 }
 
 void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
@@ -174,7 +174,7 @@ void MassSpring::follow(const ChangeRecord& change) {
     mass_[v] = 0.0;
     fixed_[v] = 0;
     warm_[v] = Vec3::Zero();
-    if (v < static_cast<int>(warm_prev_.size())) warm_prev_[v] = Vec3::Zero();
+    warm_prev_[v] = Vec3::Zero();
   }
   for (std::size_t i = 0; i < change.added_vertices.size(); ++i) {
     const int v = change.added_vertices[i];
@@ -183,7 +183,7 @@ void MassSpring::follow(const ChangeRecord& change) {
       all_fixed = all_fixed && p.vertex < static_cast<int>(fixed_.size()) && fixed_[p.vertex];
     fixed_[v] = all_fixed ? 1 : 0;
     warm_[v] = Vec3::Zero();
-    if (v < static_cast<int>(warm_prev_.size())) warm_prev_[v] = Vec3::Zero();
+    warm_prev_[v] = Vec3::Zero();
   }
   std::sort(vertices.begin(), vertices.end());
   vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
@@ -371,7 +371,6 @@ bool MassSpring::stepImplicit(double dt) {
   for (auto& e : acc_) e.resize(n);
   for (auto& e : start_acc_) e.resize(n);
   for (auto& e : diag_acc_) e.resize(n);
-  const bool extrapolate = warm_prev_.size() == warm_.size();
 
   // The warm start: the last two steps' answers extrapolated (the velocity change varies
   // smoothly from step to step; 16.2 -> 13.1 CG iterations a step on the 20k organ while it is
@@ -380,10 +379,7 @@ bool MassSpring::stepImplicit(double dt) {
     const auto [begin, end] = rangeOf(n, part);
     for (int v = begin; v < end; ++v) {
       held_[v] = fixed_[v] || !mesh_->vertexAlive(v);
-      const bool warm = v < static_cast<int>(warm_.size());
-      dv_[v] = held_[v] || !warm ? Vec3::Zero()
-               : extrapolate     ? Vec3(2.0 * warm_[v] - warm_prev_[v])
-                                 : warm_[v];
+      dv_[v] = held_[v] ? Vec3::Zero() : Vec3(2.0 * warm_[v] - warm_prev_[v]);
     }
   });
   // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
@@ -487,7 +483,6 @@ bool MassSpring::stepImplicit(double dt) {
   });
   warm_prev_.swap(warm_);
   warm_.swap(dv_);
-  warm_prev_.resize(warm_.size(), Vec3::Zero());
   return true;
 }
 
@@ -558,7 +553,7 @@ std::string MassSpring::step(double dt) {
   } else {
     stepSemiImplicit(dt);
   }
-  // The fastest vertex, and whether all are finite (the implicit step's last loop checks them).
+  // The fastest vertex, and whether all are finite.
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
     double worst = 0.0, finite = 1.0;
