@@ -308,45 +308,62 @@ void MassSpring::assembleSprings(int part, double dt) {
     start[run] += run_w;
     addTo(&diag[run], run_k);
   };
-  for (int i = begin; i < end; ++i) {
-    const Spring& s = springs_[i];
-    ends_[i] = {s.a, s.b};
-    if (s.a != run) {
-      flush();
-      run = s.a;
-      run_b.setZero();
-      run_w.setZero();
-      run_k = {0, 0, 0, 0, 0, 0};
+  // The springs' lengths and their inverses a batch at a time: the square roots and divisions
+  // of a batch go through the divider together instead of each stalling its own spring's work.
+  constexpr int kBatch = 16;
+  double length[kBatch], inverse[kBatch];
+  for (int batch = begin; batch < end; batch += kBatch) {
+    const int count = std::min(kBatch, end - batch);
+    for (int j = 0; j < count; ++j) {
+      const Spring& s = springs_[batch + j];
+      length[j] = (x[s.b] - x[s.a]).squaredNorm();
     }
-    const Vec3 d = x[s.b] - x[s.a];
-    const double len = d.norm();
-    Block& k = blocks_[i];
-    Vec3 f = Vec3::Zero();
-    if (len > 0) {
-      const double inv = 1.0 / len;
-      f = (s.stiffness * (len - s.rest_length) * inv) * d;
-      // The spring's stiffness block (force on a is +K (x_b - x_a) to first order):
-      // K = k (n n^T + max(0, 1 - L/|d|) (I - n n^T)). The transverse part is clamped at 0 so
-      // the block stays positive semi-definite (Choi and Ko 2002), which keeps A symmetric
-      // positive definite.
-      const Vec3 nrm = d * inv;
-      const double transverse = std::max(0.0, 1.0 - s.rest_length * inv);
-      const double kt = h2 * s.stiffness * transverse, kn = h2 * s.stiffness - kt;
-      k = {kt + kn * nrm.x() * nrm.x(), kn * nrm.x() * nrm.y(), kn * nrm.x() * nrm.z(),
-           kt + kn * nrm.y() * nrm.y(), kn * nrm.y() * nrm.z(), kt + kn * nrm.z() * nrm.z()};
-    } else {
-      const double kk = h2 * s.stiffness;
-      k = {kk, 0.0, 0.0, kk, 0.0, kk};
+    for (int j = count; j < kBatch; ++j) length[j] = 1.0;
+    for (int j = 0; j < kBatch; ++j) {
+      length[j] = std::sqrt(length[j]);
+      inverse[j] = 1.0 / (length[j] > 0 ? length[j] : 1.0);
     }
-    const Vec3 dvel = u[s.b] - u[s.a];
-    const Vec3 fb = f + inv_dt * apply(k, dvel);
-    run_b += fb;
-    acc[s.b] -= fb;
-    const Vec3 kw = apply(k, Vec3(w[s.a] - w[s.b]));  // as springProducts() adds for dv
-    run_w += kw;
-    start[s.b] -= kw;
-    addTo(&run_k, k);
-    addTo(&diag[s.b], k);
+    for (int j = 0; j < count; ++j) {
+      const int i = batch + j;
+      const Spring& s = springs_[i];
+      ends_[i] = {s.a, s.b};
+      if (s.a != run) {
+        flush();
+        run = s.a;
+        run_b.setZero();
+        run_w.setZero();
+        run_k = {0, 0, 0, 0, 0, 0};
+      }
+      const Vec3 d = x[s.b] - x[s.a];
+      const double len = length[j];
+      Block& k = blocks_[i];
+      Vec3 f = Vec3::Zero();
+      if (len > 0) {
+        const double inv = inverse[j];
+        f = (s.stiffness * (len - s.rest_length) * inv) * d;
+        // The spring's stiffness block (force on a is +K (x_b - x_a) to first order):
+        // K = k (n n^T + max(0, 1 - L/|d|) (I - n n^T)). The transverse part is clamped at 0 so
+        // the block stays positive semi-definite (Choi and Ko 2002), which keeps A symmetric
+        // positive definite.
+        const Vec3 nrm = d * inv;
+        const double transverse = std::max(0.0, 1.0 - s.rest_length * inv);
+        const double kt = h2 * s.stiffness * transverse, kn = h2 * s.stiffness - kt;
+        k = {kt + kn * nrm.x() * nrm.x(), kn * nrm.x() * nrm.y(), kn * nrm.x() * nrm.z(),
+             kt + kn * nrm.y() * nrm.y(), kn * nrm.y() * nrm.z(), kt + kn * nrm.z() * nrm.z()};
+      } else {
+        const double kk = h2 * s.stiffness;
+        k = {kk, 0.0, 0.0, kk, 0.0, kk};
+      }
+      const Vec3 dvel = u[s.b] - u[s.a];
+      const Vec3 fb = f + inv_dt * apply(k, dvel);
+      run_b += fb;
+      acc[s.b] -= fb;
+      const Vec3 kw = apply(k, Vec3(w[s.a] - w[s.b]));  // as springProducts() adds for dv
+      run_w += kw;
+      start[s.b] -= kw;
+      addTo(&run_k, k);
+      addTo(&diag[s.b], k);
+    }
   }
   flush();
 }
