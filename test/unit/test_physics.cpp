@@ -97,6 +97,40 @@ TEST(Physics, MassIsDensityTimesRestVolumeThroughACut) {
   std::printf("inertia the floor adds after the cut: %.3g of the mass\n", s.physics.inertia_added);
 }
 
+TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheResult) {
+  // Springs come and go with every cut and collapse (a removed one's slot takes the last
+  // spring); what is left must be what a model built on the final mesh has.
+  Config config;
+  config.collapse.budget_us = 0.0;
+  config.cut.blade_length = 0.06;
+  config.physics.enabled = false;
+  Tissue tissue(config, makeBlock());
+  const ScalpelPath path(
+      {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
+       ToolPose{0.2, Vec3(0.0, 0.0043, 0.04), Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Vec3::UnitZ()))},
+       ToolPose{0.4, Vec3(0.07, -0.002, 0.045), Eigen::Quaterniond::Identity()}});
+  for (int k = 0; k <= 400; ++k) {
+    const ToolPose p = path.at(k * 1e-3);
+    tissue.step(bladeFromPose(p.position, p.orientation, 0.06), 1e-3);
+  }
+  for (int k = 0; k < 200; ++k) tissue.step(std::nullopt, 1e-3);
+  ASSERT_EQ(tissue.validate(), "");
+  const Statistics s = tissue.statistics();
+  ASSERT_GT(s.cut.cut_tetrahedra, 50);
+  ASSERT_GT(s.collapse.collapsed_edges, 10);
+  const TetMesh& mesh = tissue.mesh();
+  Eigen::MatrixXd V(mesh.vertexSlots(), 3);
+  for (int v = 0; v < mesh.vertexSlots(); ++v) V.row(v) = mesh.rest(v).transpose();
+  TetMesh fresh(V, mesh.liveTets());
+  const MassSpring rebuilt(&fresh, tissue.physics().params());
+  EXPECT_EQ(tissue.physics().numSprings(), rebuilt.numSprings());
+  EXPECT_EQ(rebuilt.numSprings(), static_cast<int>(mesh.edges().size()));
+  for (int v = 0; v < mesh.vertexSlots(); ++v) {
+    if (!mesh.vertexAlive(v)) continue;
+    EXPECT_NEAR(tissue.physics().mass(v), rebuilt.mass(v), 1e-12) << "vertex " << v;
+  }
+}
+
 TEST(Physics, FreeBodyKeepsItsMomentum) {
   const MeshData block = makeBlock();
   TetMesh mesh(block.V, block.T);

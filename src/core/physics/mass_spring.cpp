@@ -9,11 +9,6 @@ namespace tissue_cut {
 
 namespace {
 
-long long edgeKey(int a, int b) {
-  if (a > b) std::swap(a, b);
-  return (static_cast<long long>(a) << 32) | static_cast<unsigned>(b);
-}
-
 // k x for a symmetric block k = (xx, xy, xz, yy, yz, zz).
 template <class Sym>
 Vec3 apply(const Sym& k, const Vec3& x) {
@@ -113,22 +108,32 @@ void MassSpring::updateMass(int v) {
   mass_[v] = m;
 }
 
+int MassSpring::findSpring(int a, int b) const {
+  const int lo = std::min(a, b), hi = std::max(a, b);
+  if (lo >= static_cast<int>(springs_from_.size())) return -1;
+  for (int i : springs_from_[lo])
+    if (springs_[i].b == hi) return i;
+  return -1;
+}
+
 void MassSpring::updateSpring(int a, int b) {
-  const long long key = edgeKey(a, b);
   double volume = 0.0;
   if (mesh_->vertexAlive(a) && mesh_->vertexAlive(b))
     for (int t : mesh_->vertexTets(a)) {  // the tets on ab, as edgeTets() lists them
       const TetVerts& tv = mesh_->tet(t);
       if (std::find(tv.begin(), tv.end(), b) != tv.end()) volume += mesh_->restVolume(t);
     }
-  auto it = spring_of_.find(key);
+  const int found = findSpring(a, b);
   if (volume <= 0.0) {
-    if (it == spring_of_.end()) return;
-    const int i = it->second;
-    spring_of_.erase(it);
-    if (i != static_cast<int>(springs_.size()) - 1) {
-      springs_[i] = springs_.back();
-      spring_of_[edgeKey(springs_[i].a, springs_[i].b)] = i;
+    if (found < 0) return;
+    // Swap-remove: the last spring takes the slot (and its place in its first end's list).
+    const int last = static_cast<int>(springs_.size()) - 1;
+    std::vector<int>& at = springs_from_[springs_[found].a];
+    at.erase(std::find(at.begin(), at.end(), found));
+    if (found != last) {
+      springs_[found] = springs_[last];
+      std::vector<int>& moved = springs_from_[springs_[found].a];
+      *std::find(moved.begin(), moved.end(), last) = found;
     }
     springs_.pop_back();
     return;
@@ -143,11 +148,12 @@ void MassSpring::updateSpring(int a, int b) {
   double k = params_.young_modulus * volume / (length * length);
   if (scale > 0) k = std::clamp(k, kMinStiffness * scale, kMaxStiffness * scale);
   const Spring s{std::min(a, b), std::max(a, b), length, k};
-  if (it == spring_of_.end()) {
-    spring_of_[key] = static_cast<int>(springs_.size());
+  if (found < 0) {
+    if (static_cast<int>(springs_from_.size()) <= s.a) springs_from_.resize(s.a + 1);
+    springs_from_[s.a].push_back(static_cast<int>(springs_.size()));
     springs_.push_back(s);
   } else {
-    springs_[it->second] = s;
+    springs_[found] = s;
   }
 }
 
