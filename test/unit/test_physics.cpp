@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/mesh/block.hpp"
@@ -53,6 +54,19 @@ Settled settle(double young, double cell, double dt, double seconds) {
   return {mesh.current(tip).z() - mesh.rest(tip).z(), physics.kineticEnergy()};
 }
 
+// Ticks 0 .. last_tick at 1 kHz with the blade on the path, then `after` ticks without it;
+// returns the warnings of every tick, joined (empty: none).
+std::string replay(Tissue* tissue, const ScalpelPath& path, double blade_length, int last_tick,
+                   int after) {
+  std::string warnings;
+  for (int k = 0; k <= last_tick; ++k) {
+    const ToolPose p = path.at(k * 1e-3);
+    warnings += tissue->step(bladeFromPose(p.position, p.orientation, blade_length), 1e-3);
+  }
+  for (int k = 0; k < after; ++k) warnings += tissue->step(std::nullopt, 1e-3);
+  return warnings;
+}
+
 }  // namespace
 
 TEST(Physics, CantileverComesToRestAndHalvesItsSagWhenEDoubles) {
@@ -79,11 +93,7 @@ TEST(Physics, MassIsDensityTimesRestVolumeThroughACut) {
   const ScalpelPath path(
       {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
        ToolPose{0.4, Vec3(0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()}});
-  for (int k = 0; k <= 400; ++k) {
-    const ToolPose p = path.at(k * 1e-3);
-    tissue.step(bladeFromPose(p.position, p.orientation, 0.06), 1e-3);
-  }
-  tissue.step(std::nullopt, 1e-3);
+  replay(&tissue, path, 0.06, 400, 1);
   ASSERT_EQ(tissue.validate(), "");
   const Statistics s = tissue.statistics();
   EXPECT_GT(s.cut.cut_tetrahedra, 50);
@@ -109,11 +119,7 @@ TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheR
       {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
        ToolPose{0.2, Vec3(0.0, 0.0043, 0.04), Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Vec3::UnitZ()))},
        ToolPose{0.4, Vec3(0.07, -0.002, 0.045), Eigen::Quaterniond::Identity()}});
-  for (int k = 0; k <= 400; ++k) {
-    const ToolPose p = path.at(k * 1e-3);
-    tissue.step(bladeFromPose(p.position, p.orientation, 0.06), 1e-3);
-  }
-  for (int k = 0; k < 200; ++k) tissue.step(std::nullopt, 1e-3);
+  replay(&tissue, path, 0.06, 400, 200);
   ASSERT_EQ(tissue.validate(), "");
   const Statistics s = tissue.statistics();
   ASSERT_GT(s.cut.cut_tetrahedra, 50);
@@ -221,11 +227,7 @@ TEST(Physics, CollapseLeavesTheDisplacementFieldAllButUnchanged) {
     // A cut across the upper half, while it sags.
     const ScalpelPath path({ToolPose{0.0, Vec3(-0.02, -0.13, 0.2), Eigen::Quaterniond::Identity()},
                             ToolPose{0.5, Vec3(-0.02, 0.13, 0.2), Eigen::Quaterniond::Identity()}});
-    for (int k = 0; k <= 500; ++k) {
-      const ToolPose p = path.at(k * 1e-3);
-      tissue.step(bladeFromPose(p.position, p.orientation, 0.2), 1e-3);
-    }
-    for (int k = 0; k < 700; ++k) tissue.step(std::nullopt, 1e-3);
+    replay(&tissue, path, 0.2, 500, 700);
     EXPECT_EQ(tissue.validate(), "");
     std::vector<Vec3> displacement(ellipsoid.V.rows());
     for (int v = 0; v < ellipsoid.V.rows(); ++v)
@@ -296,11 +298,7 @@ TEST(Physics, TwoThreadsStepAsOneDoesThroughACut) {
     const ScalpelPath path(
         {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
          ToolPose{0.3, Vec3(0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()}});
-    for (int k = 0; k <= 300; ++k) {
-      const ToolPose p = path.at(k * 1e-3);
-      EXPECT_EQ(tissue.step(bladeFromPose(p.position, p.orientation, 0.03), 1e-3), "");
-    }
-    for (int k = 0; k < 200; ++k) EXPECT_EQ(tissue.step(std::nullopt, 1e-3), "");
+    EXPECT_EQ(replay(&tissue, path, 0.03, 300, 200), "");
     EXPECT_EQ(tissue.validate(), "");
     double sag = 0.0;
     for (int v = 0; v < tissue.mesh().vertexSlots(); ++v)

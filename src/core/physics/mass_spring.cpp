@@ -324,7 +324,7 @@ void MassSpring::assembleSprings(int part, double dt) {
       const Spring& s = springs_[batch + j];
       length[j] = (x[s.b] - x[s.a]).squaredNorm();
     }
-    for (int j = count; j < kBatch; ++j) length[j] = 1.0;
+    for (int j = count; j < kBatch; ++j) length[j] = 1.0;  // a full batch: a fixed count unrolls
     for (int j = 0; j < kBatch; ++j) {
       length[j] = std::sqrt(length[j]);
       inverse[j] = 1.0 / (length[j] > 0 ? length[j] : 1.0);
