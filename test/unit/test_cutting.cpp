@@ -3,12 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <numeric>
 #include <random>
 
+#include "tissue_cut/cut/cutter.hpp"
 #include "tissue_cut/cut/scalpel_path.hpp"
+#include "tissue_cut/cut/sweep.hpp"
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/topology.hpp"
 #include "tissue_cut/tissue.hpp"
@@ -346,4 +349,144 @@ TEST(Cutting, AnEmptyOrNonFiniteMeshIsRefused) {
   MeshData bad = makeBlock();
   bad.V(3, 1) = std::numeric_limits<double>::infinity();
   EXPECT_THROW(Tissue(cutOnly(0.03), bad), std::invalid_argument);
+}
+
+namespace {
+
+// The point of triangle abc closest to p (by the triangle's Voronoi regions).
+Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+double pointTetDistance(const Vec3& x, const std::array<Vec3, 4>& p) {
+  const double whole = signedVolume(p[0], p[1], p[2], p[3]);
+  bool inside = true;
+  for (int f = 0; f < 4; ++f) {
+    std::array<Vec3, 4> q = p;
+    q[f] = x;
+    if (signedVolume(q[0], q[1], q[2], q[3]) * whole < 0) inside = false;
+  }
+  if (inside) return 0.0;
+  double best = HUGE_VAL;
+  for (const auto& f : kTetFace)
+    best = std::min(best, (x - closestOnTriangle(x, p[f[0]], p[f[1]], p[f[2]])).norm());
+  return best;
+}
+
+// The distance from segment ab to the tet: the distance to a convex set is convex along the
+// segment, so a ternary search finds its minimum.
+double segmentTetDistance(const Vec3& a, const Vec3& b, const std::array<Vec3, 4>& p) {
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 200; ++i) {
+    const double m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+    if (pointTetDistance(a + m1 * (b - a), p) <= pointTetDistance(a + m2 * (b - a), p))
+      hi = m2;
+    else
+      lo = m1;
+  }
+  return pointTetDistance(a + 0.5 * (lo + hi) * (b - a), p);
+}
+
+}  // namespace
+
+// The sweep leaves out tets by this bound while the blade and tissue have not moved enough to
+// reach them: it must never exceed the true distance, and it must be close enough to be of use.
+TEST(SweepGeometry, SegmentTetGapIsALowerBoundOfTheDistanceAndATightOne) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> corner(-1.0, 1.0), end(-3.0, 3.0);
+  int far = 0;
+  double ratio_sum = 0.0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    std::array<Vec3, 4> p;
+    for (Vec3& x : p) x = Vec3(corner(rng), corner(rng), corner(rng));
+    if (std::abs(signedVolume(p[0], p[1], p[2], p[3])) < 1e-3) continue;
+    Vec3 a(end(rng), end(rng), end(rng)), b(end(rng), end(rng), end(rng));
+    if (trial % 10 == 0) b = a;  // a point
+    const double distance = segmentTetDistance(a, b, p);
+    const double gap = segmentTetGap(a, b, p);
+    ASSERT_LE(gap, distance + 1e-9) << "trial " << trial;
+    ASSERT_GE(gap, 0.0);
+    if (distance > 0.5) {
+      ++far;
+      ratio_sum += gap / distance;
+    }
+  }
+  ASSERT_GT(far, 500);
+  std::printf("segmentTetGap: mean bound / distance %.3f over %d pairs at least 0.5 apart\n",
+              ratio_sum / far, far);
+  EXPECT_GT(ratio_sum / far, 0.75);
+  // Meeting (a segment through the tet's centroid) and non-finite corners: no gap.
+  const std::array<Vec3, 4> unit{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+  EXPECT_EQ(segmentTetGap(Vec3(-1, -1, -1), Vec3(1, 1, 1), unit), 0.0);
+  std::array<Vec3, 4> broken = unit;
+  broken[2].y() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(segmentTetGap(Vec3(5, 5, 5), Vec3(6, 6, 6), broken), 0.0);
+}
+
+// The sweep looks again at a tet only once the blade's moves and the tissue's (as told) could
+// have brought it within reach. A cutter told nothing looks at every tet near the blade each
+// tick; one told that the tissue stays still reuses its bounds across ticks. Both must cut the
+// same: a tilted trembling stroke out and back along its own wound.
+TEST(Cutting, SweepBoundsCarriedAcrossTicksCutAsFreshOnesDo) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> tremble(0.0, 0.0001);
+  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.3, Vec3(1, 0.3, 0).normalized()));
+  std::vector<BladeSegment> blades;
+  for (int k = 0; k <= 1000; ++k) {
+    const double s = 1.0 - std::abs(k / 500.0 - 1.0);  // out in 0.5 s, back in 0.5 s
+    const Vec3 origin(-0.065 + 0.13 * s + tremble(rng), 0.004 + tremble(rng), 0.05);
+    const Eigen::Quaterniond twist(Eigen::AngleAxisd(0.01 * tremble(rng) / 0.0001, Vec3::UnitZ()));
+    blades.push_back(bladeFromPose(origin, tilt * twist, 0.04));
+  }
+  const MeshData block = makeBlock();
+  auto cut = [&](bool told, TetMesh* mesh) {
+    Cutter cutter(mesh, CutterOptions{});
+    for (const BladeSegment& blade : blades) {
+      ChangeRecord change;
+      cutter.step(blade, &change);
+      if (told) cutter.tissueMoved(0.0);
+    }
+    ChangeRecord change;
+    cutter.step(std::nullopt, &change);
+    return cutter.counts();
+  };
+  TetMesh carried(block.V, block.T), fresh(block.V, block.T);
+  const CutCounts a = cut(true, &carried);
+  const CutCounts b = cut(false, &fresh);
+  EXPECT_GT(a.cut_tetrahedra, 100);
+  EXPECT_EQ(a.cut_tetrahedra, b.cut_tetrahedra);
+  EXPECT_EQ(a.created_tetrahedra, b.created_tetrahedra);
+  EXPECT_EQ(a.separated_vertices, b.separated_vertices);
+  ASSERT_EQ(carried.validate(), "");
+  ASSERT_EQ(carried.vertexSlots(), fresh.vertexSlots());
+  ASSERT_EQ(carried.tetSlots(), fresh.tetSlots());
+  for (int t = 0; t < carried.tetSlots(); ++t) {
+    ASSERT_EQ(carried.tetAlive(t), fresh.tetAlive(t)) << "tet " << t;
+    if (carried.tetAlive(t)) {
+      ASSERT_EQ(carried.tet(t), fresh.tet(t)) << "tet " << t;
+    }
+  }
+  for (int v = 0; v < carried.vertexSlots(); ++v) {
+    ASSERT_EQ(carried.vertexAlive(v), fresh.vertexAlive(v)) << "vertex " << v;
+    if (carried.vertexAlive(v)) {
+      ASSERT_EQ(carried.rest(v), fresh.rest(v)) << "vertex " << v;
+    }
+  }
 }

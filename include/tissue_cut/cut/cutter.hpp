@@ -74,12 +74,16 @@ class Cutter {
   /// Vertices on the cut whose split still waits (it would pinch the boundary for now).
   int numDeferred() const { return static_cast<int>(deferred_.size()); }
   /// True for tets that are temporary pieces of a tet the blade is still inside.
-  bool isPendingPiece(int t) const;
+  bool isPendingPiece(int t) const {
+    return static_cast<std::size_t>(t) < pending_of_.size() && pending_of_[t] >= 0;
+  }
   /// True for vertices a remesher must leave alone: next to a tet still being cut, on a cut face
   /// not opened yet, or waiting to be split.
   bool isBusy(int v) const;
   /// True for vertices on a cut: snapped onto one, made by one, or copies of those.
-  bool onWound(int v) const;
+  bool onWound(int v) const {
+    return static_cast<std::size_t>(v) < wound_flag_.size() && wound_flag_[v] != 0;
+  }
   /// Whether a remesher may make the new edge uv: every point of it lies within the wound band
   /// (wound_snap times the mean edge) of one of its ends on a wound, in current positions. A
   /// blade coming back along a wound that the tissue has moved since follows it where it crosses
@@ -146,6 +150,16 @@ class Cutter {
   void rebuildGrid();
   /// The grid's query, from candidates kept while the blade stays near (see near_cache_).
   void gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out);
+  /// Makes near_cache_ hold the grid's candidates around [lo, hi].
+  void cacheNear(const Vec3& lo, const Vec3& hi);
+  /// gridQuery for the sweep from `from` to `to`, leaving out tets too far from the blade to
+  /// take any part in it (see near_gap_).
+  void sweepQuery(const BladeSegment& from, const BladeSegment& to, const Vec3& lo,
+                  const Vec3& hi, std::vector<int>* out);
+  /// A lower bound of tet t's distance from the blade at gap_ref_, in current positions.
+  double gapOf(int t) const;
+  /// The Coarse tets of `tets` (a pending tet once, at its first piece).
+  std::vector<Coarse> coarseOf(const std::vector<int>& tets) const;
 
   TetMesh* mesh_;
   CutterOptions options_;
@@ -156,6 +170,16 @@ class Cutter {
   std::vector<int> near_cache_;
   Vec3 near_cache_lo_ = Vec3::Zero(), near_cache_hi_ = Vec3::Zero();
   bool near_cache_valid_ = false;
+  // Parallel to near_cache_: a lower bound of each tet's distance from the blade at gap_ref_
+  // when it was computed, plus gap_tissue_ then. Since then the blade has moved by at most
+  // gap_blade_ (each tick's sweep lies within its larger end move of the blade before it) and
+  // the tissue by gap_tissue_ less that; a tet whose entry exceeds the sweep's reach plus both
+  // cannot meet this tick's sweep, and the sweep leaves it alone (most ticks the blade moves
+  // tens of micrometres inside tets of millimetres: only the tets it is in are looked at).
+  std::vector<double> near_gap_;
+  BladeSegment gap_ref_, gap_last_;
+  bool gap_valid_ = false;
+  double gap_blade_ = 0.0, gap_tissue_ = 0.0;
   std::optional<BladeSegment> previous_;
   Vec3 last_motion_ = Vec3::Zero();  // the blade's last move, to push a stroke's end ahead
   double frontShift() const { return 0.6 * snap_distance_; }
@@ -165,6 +189,14 @@ class Cutter {
   std::vector<int> pending_of_;          // per tet slot
   std::unordered_set<int> on_cut_;       // vertices lying on the cut surface (snapped)
   std::unordered_set<int> wound_;        // points the cutter made on cut surfaces, and copies
+  // Per vertex slot: kOnCut when in on_cut_, kWound when in wound_ (the sets' fast lookup).
+  static constexpr unsigned char kOnCut = 1, kWound = 2;
+  std::vector<unsigned char> wound_flag_;
+  bool onCut(int v) const {
+    return static_cast<std::size_t>(v) < wound_flag_.size() && (wound_flag_[v] & kOnCut) != 0;
+  }
+  void setOnCut(int v);
+  void setWound(int v);
   /// A crossing at x of the edge or face `verts` lies on an earlier cut in the tets around it.
   bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
@@ -185,6 +217,12 @@ class Cutter {
   Vec3 swept_lo_ = Vec3::Zero(), swept_hi_ = Vec3::Zero();
   bool swept_valid_ = false;
   std::vector<std::pair<int, int>> edge_scratch_;
+  // groupsAround's scratch: per tet slot, the call that last saw it in the star and its place.
+  mutable std::vector<unsigned> star_stamp_;
+  mutable std::vector<int> star_place_;
+  mutable unsigned star_call_ = 0;
+  std::vector<unsigned> vertex_seen_;  // per vertex slot: seen_stamp_ when the sweep saw it
+  unsigned seen_stamp_ = 0;
   std::vector<std::array<int, 3>> face_scratch_;
 };
 

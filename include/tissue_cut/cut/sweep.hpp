@@ -27,6 +27,11 @@ bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const Triangle& t, dou
 /// True when x is within `distance` [m] of the triangle's plane and projects inside it.
 bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance);
 
+/// A lower bound of the distance [m] between segment base->tip and the tet with these corners
+/// (separating axes: coordinate axes, the segment's, towards the tet, the tet's face normals);
+/// 0 when they may meet or a corner is not finite.
+double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners);
+
 /// True when segment p->q meets the tet (a, b, c, d) grown by `tolerance` [m].
 bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
                      const Vec3& d, double tolerance);

@@ -46,6 +46,7 @@ void Cutter::reset() {
   pending_.clear();
   on_cut_.clear();
   wound_.clear();
+  wound_flag_.clear();
   marked_.clear();
   marked_at_.clear();
   previous_.reset();
@@ -65,12 +66,15 @@ void Cutter::reset() {
 
 void Cutter::tissueMoved(double distance) {
   told_motion_ = true;
-  moved_ += distance >= 0.0 ? distance : HUGE_VAL;  // NaN: anything may have moved
+  const double d = distance >= 0.0 ? distance : HUGE_VAL;  // NaN: anything may have moved
+  moved_ += d;
+  gap_tissue_ += d;
 }
 
 void Cutter::rebuildGrid() {
   grid_.build(*mesh_, 2.0 * mean_edge_, mean_edge_);
   near_cache_valid_ = false;  // the candidates were the old grid's
+  gap_valid_ = false;
 }
 
 void Cutter::mark(const std::array<int, 3>& face) {
@@ -99,10 +103,6 @@ bool Cutter::isBusy(int v) const {
   return false;
 }
 
-bool Cutter::isPendingPiece(int t) const {
-  return t < static_cast<int>(pending_of_.size()) && pending_of_[t] >= 0;
-}
-
 void Cutter::refreshGrid(const ChangeRecord& change) {
   grid_.update(*mesh_, change);
   joinNearCache(change.added_tets);
@@ -111,26 +111,93 @@ void Cutter::refreshGrid(const ChangeRecord& change) {
 void Cutter::joinNearCache(const std::vector<int>& tets) {
   if (!near_cache_valid_) return;
   for (int t : tets) {
-    if (!grid_.filedNear(*mesh_, t, near_cache_lo_, near_cache_hi_)) continue;
     const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
-    if (it == near_cache_.end() || *it != t) near_cache_.insert(it, t);
+    const std::size_t i = it - near_cache_.begin();
+    const bool cached = it != near_cache_.end() && *it == t;
+    if (!grid_.filedNear(*mesh_, t, near_cache_lo_, near_cache_hi_)) {
+      if (cached) near_gap_[i] = 0.0;  // a slot reused far away: left to the box filter
+      continue;
+    }
+    // A tet filed anew is new or has moved (refiled, or a slot reused): its gap is taken now.
+    const double gap = gap_valid_ ? gapOf(t) + gap_tissue_ : 0.0;
+    if (!cached) {
+      near_cache_.insert(it, t);
+      near_gap_.insert(near_gap_.begin() + i, gap);
+    } else {
+      near_gap_[i] = gap;
+    }
   }
 }
 
-void Cutter::gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out) {
+void Cutter::cacheNear(const Vec3& lo, const Vec3& hi) {
   // The blade moves a little each tick: the grid's candidates around a box larger by half a mean
-  // edge serve the ticks while it stays inside; each query filters them by current boxes, exactly
-  // as the grid would (live tets whose current box meets [lo, hi], in id order).
+  // edge serve the ticks while it stays inside.
   if (!near_cache_valid_ || (lo.array() < near_cache_lo_.array()).any() ||
       (hi.array() > near_cache_hi_.array()).any()) {
     near_cache_lo_ = lo.array() - 0.5 * mean_edge_;
     near_cache_hi_ = hi.array() + 0.5 * mean_edge_;
     grid_.candidates(*mesh_, near_cache_lo_, near_cache_hi_, &near_cache_);
     near_cache_valid_ = true;
+    near_gap_.assign(near_cache_.size(), 0.0);
+    gap_valid_ = false;
   }
+}
+
+void Cutter::gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out) {
+  // Each query filters the cached candidates by current boxes, exactly as the grid would (live
+  // tets whose current box meets [lo, hi], in id order).
+  cacheNear(lo, hi);
   out->clear();
   for (int t : near_cache_)
     if (mesh_->tetAlive(t) && tetBoxMeets(*mesh_, t, lo, hi)) out->push_back(t);
+}
+
+double Cutter::gapOf(int t) const {
+  const TetVerts& tv = mesh_->tet(t);
+  return segmentTetGap(gap_ref_.base, gap_ref_.tip,
+                       {mesh_->current(tv[0]), mesh_->current(tv[1]), mesh_->current(tv[2]),
+                        mesh_->current(tv[3])});
+}
+
+void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const Vec3& lo,
+                        const Vec3& hi, std::vector<int>* out) {
+  cacheNear(lo, hi);
+  const double step = std::max((to.base - from.base).norm(), (to.tip - from.tip).norm());
+  // The gaps are taken anew from this tick's blade when they are not known, when the blade
+  // did not come from where the last sweep left it (a new stroke), when nobody says how far the
+  // tissue moves, and when the moves since add up to a fifth of an edge (the filter loosens).
+  if (!gap_valid_ || !told_motion_ || from.base != gap_last_.base ||
+      from.tip != gap_last_.tip || !(gap_blade_ + step + gap_tissue_ <= 0.2 * mean_edge_)) {
+    gap_ref_ = from;
+    gap_blade_ = 0.0;
+    gap_tissue_ = 0.0;
+    near_gap_.resize(near_cache_.size());
+    for (std::size_t i = 0; i < near_cache_.size(); ++i)
+      near_gap_[i] = mesh_->tetAlive(near_cache_[i]) ? gapOf(near_cache_[i]) : 0.0;
+    gap_valid_ = true;
+  }
+  gap_blade_ += step;
+  gap_last_ = to;
+  // How far from the sweep a tet can still take part in it: the wound's band (a vertex snapped
+  // or an edge crossing near a wound vertex), the fronts' shift, with room for the rounding
+  // tolerances of the tests (relative to the mean edge and to the sweep's size).
+  const double slack = 0.01 * mean_edge_ +
+                       1e-5 * ((from.tip - from.base).norm() + (to.tip - to.base).norm() + step);
+  const double moved = gap_blade_ + gap_tissue_;
+  const double reach = std::max(snap_distance_, frontShift()) + slack + moved;
+  // Only a tet holding a vertex on a wound takes part from within the wound's band.
+  const double wound_reach = std::max(reach, wound_snap_distance_ + slack + moved);
+  out->clear();
+  for (std::size_t i = 0; i < near_cache_.size(); ++i) {
+    const int t = near_cache_[i];
+    // A pending tet's pieces are always looked at: the tet, not a piece, decides its part.
+    if (!(near_gap_[i] <= reach) && !isPendingPiece(t) &&
+        !(near_gap_[i] <= wound_reach && mesh_->tetAlive(t) &&
+          std::any_of(mesh_->tet(t).begin(), mesh_->tet(t).end(),
+                      [&](int v) { return onWound(v); })))
+      continue;
+    if (mesh_->tetAlive(t) && tetBoxMeets(*mesh_, t, lo, hi)) out->push_back(t);
+  }
 }
 
 bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
@@ -162,8 +229,14 @@ void Cutter::follow(const ChangeRecord& change) {
     pending_of_.resize(mesh_->tetSlots(), -1);
   for (int t : change.removed_tets) pending_of_[t] = -1;
   for (const auto& [gone, survivor] : change.merged_vertices) {
-    if (on_cut_.erase(gone)) on_cut_.insert(survivor);
-    if (wound_.erase(gone)) wound_.insert(survivor);
+    if (on_cut_.erase(gone)) {
+      wound_flag_[gone] &= ~kOnCut;
+      setOnCut(survivor);
+    }
+    if (wound_.erase(gone)) {
+      wound_flag_[gone] &= ~kWound;
+      setWound(survivor);
+    }
   }
   refreshGrid(change);
 }
@@ -183,10 +256,14 @@ std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
   } else {
     gridQuery(lo, hi, &near_scratch_);
   }
+  return coarseOf(near_scratch_);
+}
+
+std::vector<Cutter::Coarse> Cutter::coarseOf(const std::vector<int>& tets) const {
   std::vector<Coarse> out;
-  out.reserve(near_scratch_.size());
+  out.reserve(tets.size());
   std::vector<int> seen_pending;  // few: the tets the blade is inside
-  for (int t : near_scratch_) {
+  for (int t : tets) {
     const int pid = pending_of_[t];
     if (pid < 0) {
       out.push_back({-1, t});
@@ -237,7 +314,7 @@ int Cutter::makePending(int tet) {
   const int pid = next_pending_++;
   Pending& p = pending_[pid];
   p.cut.corner = mesh_->tet(tet);
-  for (int c = 0; c < 4; ++c) p.cut.on_cut[c] = on_cut_.count(p.cut.corner[c]) > 0;
+  for (int c = 0; c < 4; ++c) p.cut.on_cut[c] = onCut(p.cut.corner[c]);
   p.pieces = {tet};
   pending_of_[tet] = pid;
   ++epoch_;
@@ -287,7 +364,7 @@ void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
   // A point nearer a corner than this would only make a needle: keep it a little inside.
   s = std::clamp(s, 0.05, 0.95);
   const int v = mesh_->addVertex({{a, 1.0 - s}, {b, s}}, change);
-  wound_.insert(v);
+  setWound(v);
   for (const Coarse& c : around) {
     const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
     Pending& p = pending_[pid];
@@ -335,7 +412,7 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
   Vec3 w = weights.cwiseMax(0.05);
   w /= w.sum();
   const int v = mesh_->addVertex({{face[0], w[0]}, {face[1], w[1]}, {face[2], w[2]}}, change);
-  wound_.insert(v);
+  setWound(v);
   for (const Coarse& c : around) {
     const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
     Pending& p = pending_[pid];
@@ -347,7 +424,7 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
 }
 
 void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& normal) {
-  if (on_cut_.count(v)) return;
+  if (onCut(v)) return;
   const Vec3& x = mesh_->current(v);
   if (!pointNearTriangle(x, tris[0], snap_distance_) &&
       !pointNearTriangle(x, tris[1], snap_distance_)) {
@@ -369,7 +446,7 @@ void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& nor
     for (int e = 0; e < 6; ++e)
       if (p.cut.edge_point[e] >= 0 && (kTetEdge[e][0] == i || kTetEdge[e][1] == i)) return;
   }
-  on_cut_.insert(v);
+  setOnCut(v);
   std::vector<int> around = mesh_->vertexTets(v);
   for (int t : around) {
     const int pid = pending_of_[t];
@@ -380,7 +457,7 @@ void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& nor
     }
     // Three corners on the cut: the cut may run along a face; decided when the blade leaves.
     int on = 0;
-    for (int u : mesh_->tet(t)) on += on_cut_.count(u) > 0;
+    for (int u : mesh_->tet(t)) on += onCut(u) ? 1 : 0;
     if (on >= 3) makePending(t);
   }
 }
@@ -497,10 +574,19 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
   };
-  // The star's tets by id, to find a neighbour's place in it.
-  std::vector<std::pair<int, int>> index(n);
-  for (int i = 0; i < n; ++i) index[i] = {star[i], i};
-  std::sort(index.begin(), index.end());
+  // Each star tet's place in the star, by tet slot (valid where star_stamp_ is this call's).
+  if (star_stamp_.size() < static_cast<std::size_t>(mesh_->tetSlots())) {
+    star_stamp_.resize(mesh_->tetSlots(), 0);
+    star_place_.resize(mesh_->tetSlots(), 0);
+  }
+  if (++star_call_ == 0) {
+    std::fill(star_stamp_.begin(), star_stamp_.end(), 0);
+    star_call_ = 1;
+  }
+  for (int i = 0; i < n; ++i) {
+    star_stamp_[star[i]] = star_call_;
+    star_place_[star[i]] = i;
+  }
   // A face is marked only if each of its vertices is on a marked face.
   const bool any_marked = marked_at_.count(v) > 0;
   for (int i = 0; i < n; ++i) {
@@ -509,12 +595,11 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
       if (tv[f] == v) continue;  // the face opposite v does not hold it
       const int u = mesh_->neighbor(star[i], f);
       if (u < 0) continue;
-      const auto it = std::lower_bound(index.begin(), index.end(), std::make_pair(u, -1));
-      if (it == index.end() || it->first != u) continue;
+      if (star_stamp_[u] != star_call_) continue;
       if (any_marked &&
           marked_.count(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]])))
         continue;
-      parent[find(i)] = find(it->second);
+      parent[find(i)] = find(star_place_[u]);
     }
   }
   // The groups in the order of their roots' places in the star, each in star order.
@@ -710,8 +795,8 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
       }
       change->append(local);
       ++counts_.separated_vertices;
-      if (on_cut_.count(v)) on_cut_.insert(copy);
-      if (wound_.count(v)) wound_.insert(copy);
+      if (onCut(v)) setOnCut(copy);
+      if (wound_.count(v)) setWound(copy);
       for (auto [key, moves] : marks) {
         if (!unmark(key) || !moves) continue;
         for (int& x : key)
@@ -744,7 +829,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
   lo.array() -= snap_distance_;
   hi.array() += snap_distance_;
-  const std::vector<Coarse> near = coarseNear(lo, hi);
+  sweepQuery(from, to, lo, hi, &near_scratch_);
+  const std::vector<Coarse> near = coarseOf(near_scratch_);
   // The fronts of this tick lie in this box (moved by less than the snap distance): their
   // searches filter these tets, as long as no tet is replaced before (see step()).
   swept_near_ = near_scratch_;
@@ -822,20 +908,65 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   Vec3 normal = (tris[0][1] - tris[0][0]).cross(tris[0][2] - tris[0][0]);
   if (normal.norm() <= tiny) normal = (tris[1][1] - tris[1][0]).cross(tris[1][2] - tris[1][0]);
   normal.normalize();
+  // The signed distance of x from the plane of swept triangle k, computed as pointNearTriangle
+  // and segmentCrossesTriangle compute it (the same operations: the same value).
+  std::array<Vec3, 2> plane_n;
+  std::array<double, 2> plane_len;
+  for (int k = 0; k < 2; ++k) {
+    plane_n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
+    plane_len[k] = plane_n[k].norm();
+  }
+  auto planeDistance = [&](int k, const Vec3& x) {
+    return plane_len[k] > 0 ? plane_n[k].dot(x - tris[k][0]) / plane_len[k] : HUGE_VAL;
+  };
+  // Each vertex once, in the order of the tets (a second look would decide the same); one
+  // farther than both bands from both planes is near neither triangle (trySnap would do nothing).
+  if (vertex_seen_.size() < static_cast<std::size_t>(mesh_->vertexSlots()))
+    vertex_seen_.resize(mesh_->vertexSlots(), 0);
+  if (++seen_stamp_ == 0) {
+    std::fill(vertex_seen_.begin(), vertex_seen_.end(), 0);
+    seen_stamp_ = 1;
+  }
+  const double band = std::max(snap_distance_, wound_snap_distance_);
   for (const TetVerts& tv : corners)
-    for (int v : tv) trySnap(v, tris, normal);
-  // The edges in increasing order, each once (sorted, as a std::set would give them).
-  std::vector<std::pair<int, int>>& edges = edge_scratch_;
-  edges.clear();
-  for (const TetVerts& tv : corners)
-    for (const auto& e : kTetEdge)
-      edges.emplace_back(std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]]));
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  // An edge can cross the swept quad only where its box meets the quad's box.
+    for (int v : tv) {
+      if (vertex_seen_[v] == seen_stamp_) continue;
+      vertex_seen_[v] = seen_stamp_;
+      const Vec3& x = mesh_->current(v);
+      if (std::abs(planeDistance(0, x)) > band && std::abs(planeDistance(1, x)) > band) continue;
+      trySnap(v, tris, normal);
+    }
+  // An edge can cross the swept quad only where its box meets the quad's box, and only when its
+  // ends lie strictly on opposite sides of a usable triangle's plane (segmentCrossesTriangle).
   const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_);
   const Vec3 quad_lo = lo.array() + snap_distance_ - slack.array();
   const Vec3 quad_hi = hi.array() - snap_distance_ + slack.array();
+  std::array<bool, 2> crossable;
+  for (int k = 0; k < 2; ++k) crossable[k] = triangleArea(tris[k]) > tiny && plane_len[k] > 0;
+  auto mayCross = [&](int a, int b) {
+    if (onCut(a) || onCut(b)) return false;
+    if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b)) return false;
+    const Vec3 &pa = mesh_->current(a), &pb = mesh_->current(b);
+    if ((pa.cwiseMin(pb).array() > quad_hi.array()).any() ||
+        (pa.cwiseMax(pb).array() < quad_lo.array()).any())
+      return false;
+    for (int k = 0; k < 2; ++k) {
+      if (!crossable[k]) continue;
+      const double dp = planeDistance(k, pa), dq = planeDistance(k, pb);
+      if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) return true;
+    }
+    return false;
+  };
+  // The edges that may cross, in increasing order, each once (as a std::set would give them).
+  std::vector<std::pair<int, int>>& edges = edge_scratch_;
+  edges.clear();
+  for (const TetVerts& tv : corners)
+    for (const auto& e : kTetEdge) {
+      const int a = std::min(tv[e[0]], tv[e[1]]), b = std::max(tv[e[0]], tv[e[1]]);
+      if (mayCross(a, b)) edges.emplace_back(a, b);
+    }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   // The ribbon's own edges (the tip's and base's paths, and the blade where the stroke began)
   // are its front: an edge crossing right on the front is left whole and the front's face points
   // take its place, so a front running along mesh faces makes no points on their edges.
@@ -848,7 +979,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
     return false;
   };
   for (const auto& [a, b] : edges) {
-    if (on_cut_.count(a) || on_cut_.count(b)) continue;
+    if (onCut(a) || onCut(b)) continue;
     if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b)) continue;
     if ((mesh_->current(a).cwiseMin(mesh_->current(b)).array() > quad_hi.array()).any() ||
         (mesh_->current(a).cwiseMax(mesh_->current(b)).array() < quad_lo.array()).any())
@@ -886,17 +1017,30 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
     const std::vector<Coarse> near = coarseNear(lo, hi);
     // The faces in increasing order of their (oriented) triples, each once, as a std::set would
     // give them; the first orientation of a face met in that order is the one taken.
+    // Only a face whose box meets the segment's (grown by far more than the crossing test's
+    // rounding margin) can be crossed; both orientations of a face pass or fail alike.
+    const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_ + 1e-6 * (seg[1] - seg[0]).norm());
+    const Vec3 seg_lo = lo - slack, seg_hi = hi + slack;
     std::vector<std::array<int, 3>>& faces = face_scratch_;
     faces.clear();
     for (const Coarse& c : near) {
       const TetVerts tv = cornersOf(c);
-      for (const auto& f : kTetFace) faces.push_back({tv[f[0]], tv[f[1]], tv[f[2]]});
+      for (const auto& f : kTetFace) {
+        const Vec3 &a = mesh_->current(tv[f[0]]), &b = mesh_->current(tv[f[1]]),
+                   &d = mesh_->current(tv[f[2]]);
+        if ((a.cwiseMin(b).cwiseMin(d).array() > seg_hi.array()).any() ||
+            (a.cwiseMax(b).cwiseMax(d).array() < seg_lo.array()).any())
+          continue;
+        faces.push_back({tv[f[0]], tv[f[1]], tv[f[2]]});
+      }
     }
     std::sort(faces.begin(), faces.end());
     faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-    std::set<std::array<int, 3>> done;
+    std::vector<std::array<int, 3>> done;  // few
     for (const auto& face : faces) {
-      if (!done.insert(sortedFace(face[0], face[1], face[2])).second) continue;
+      const std::array<int, 3> key = sortedFace(face[0], face[1], face[2]);
+      if (std::find(done.begin(), done.end(), key) != done.end()) continue;
+      done.push_back(key);
       const Triangle tri{mesh_->current(face[0]), mesh_->current(face[1]), mesh_->current(face[2])};
       double s;
       Vec3 bary;
@@ -907,7 +1051,17 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
   }
 }
 
-bool Cutter::onWound(int v) const { return on_cut_.count(v) > 0 || wound_.count(v) > 0; }
+void Cutter::setOnCut(int v) {
+  on_cut_.insert(v);
+  if (wound_flag_.size() <= static_cast<std::size_t>(v)) wound_flag_.resize(v + 1, 0);
+  wound_flag_[v] |= kOnCut;
+}
+
+void Cutter::setWound(int v) {
+  wound_.insert(v);
+  if (wound_flag_.size() <= static_cast<std::size_t>(v)) wound_flag_.resize(v + 1, 0);
+  wound_flag_[v] |= kWound;
+}
 
 bool Cutter::mayJoin(int u, int v) const {
   const double length = (mesh_->current(u) - mesh_->current(v)).norm();

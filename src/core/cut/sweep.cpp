@@ -49,6 +49,57 @@ bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance) {
   return barycentric(projected, t, n).minCoeff() >= 0.0;
 }
 
+double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners) {
+  // Separating axes between the tet and the segment: the three coordinate axes, the segment's
+  // own, the direction from its line to the tet's centroid and the tet's four face normals.
+  // Along any unit axis, the gap between the two projections is at most the distance.
+  std::array<Vec3, 4> p;
+  for (int i = 0; i < 4; ++i) {
+    p[i] = corners[i] - base;
+    if (!p[i].allFinite()) return 0.0;  // a corner anywhere: no bound
+  }
+  const Vec3 d = tip - base;
+  if (!d.allFinite()) return 0.0;
+  Vec3 lo = p[0], hi = p[0];
+  for (int i = 1; i < 4; ++i) {
+    lo = lo.cwiseMin(p[i]);
+    hi = hi.cwiseMax(p[i]);
+  }
+  const Vec3 slo = d.cwiseMin(Vec3::Zero()), shi = d.cwiseMax(Vec3::Zero());
+  double gap = std::max((lo - shi).maxCoeff(), (slo - hi).maxCoeff());
+  const double len = d.norm();
+  if (len > 0) {
+    const Vec3 u = d / len;
+    double a = HUGE_VAL, z = -HUGE_VAL;
+    for (const Vec3& q : p) {
+      a = std::min(a, u.dot(q));
+      z = std::max(z, u.dot(q));
+    }
+    gap = std::max({gap, a - len, -z});
+    // Perpendicular to the segment, which projects to the single value 0 there.
+    const Vec3 c = 0.25 * (p[0] + p[1] + p[2] + p[3]);
+    Vec3 w = c - u.dot(c) * u;
+    const double wl = w.norm();
+    if (wl > 0) {
+      w /= wl;
+      double m = HUGE_VAL;
+      for (const Vec3& q : p) m = std::min(m, w.dot(q));
+      gap = std::max(gap, m);
+    }
+  }
+  // Each face's outward normal: the segment's nearer end beyond the face's plane.
+  for (int f = 0; f < 4; ++f) {
+    const Vec3& a = p[kTetFace[f][0]];
+    Vec3 n = (p[kTetFace[f][1]] - a).cross(p[kTetFace[f][2]] - a);
+    const double nl = n.norm();
+    if (!(nl > 0)) continue;
+    n /= nl;
+    if (n.dot(p[f] - a) > 0) n = -n;  // face f is the one opposite corner f
+    gap = std::max(gap, std::min(n.dot(-a), n.dot(d - a)));
+  }
+  return gap > 0 ? gap : 0.0;
+}
+
 bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
                      const Vec3& d, double tolerance) {
   // Clip the segment's parameter range against the four face planes (outward normals).
