@@ -353,28 +353,6 @@ TEST(Cutting, AnEmptyOrNonFiniteMeshIsRefused) {
 
 namespace {
 
-// The point of triangle abc closest to p (by the triangle's Voronoi regions).
-Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
 double pointTetDistance(const Vec3& x, const std::array<Vec3, 4>& p) {
   const double whole = signedVolume(p[0], p[1], p[2], p[3]);
   bool inside = true;
@@ -386,7 +364,7 @@ double pointTetDistance(const Vec3& x, const std::array<Vec3, 4>& p) {
   if (inside) return 0.0;
   double best = HUGE_VAL;
   for (const auto& f : kTetFace)
-    best = std::min(best, (x - closestOnTriangle(x, p[f[0]], p[f[1]], p[f[2]])).norm());
+    best = std::min(best, pointTriangleDistance(x, p[f[0]], p[f[1]], p[f[2]]));
   return best;
 }
 

@@ -96,7 +96,6 @@ class Cutter {
   long long stateEpoch() const { return epoch_; }
   /// Mean rest edge length of the mesh the cutter started on [m].
   double meanEdge() const { return mean_edge_; }
-  const std::unordered_set<int>& verticesOnCut() const { return on_cut_; }
   /// Resets all cut state (after the mesh was replaced).
   void reset();
   /// See CutterOptions::max_jump [m].
@@ -187,16 +186,14 @@ class Cutter {
   std::unordered_map<int, Pending> pending_;
   int next_pending_ = 0;
   std::vector<int> pending_of_;          // per tet slot
-  std::unordered_set<int> on_cut_;       // vertices lying on the cut surface (snapped)
-  std::unordered_set<int> wound_;        // points the cutter made on cut surfaces, and copies
-  // Per vertex slot: kOnCut when in on_cut_, kWound when in wound_ (the sets' fast lookup).
+  // Per vertex slot: kOnCut for vertices lying on the cut surface (snapped), kWound for points
+  // the cutter made on cut surfaces; copies of a vertex and the survivor of a collapse inherit.
   static constexpr unsigned char kOnCut = 1, kWound = 2;
   std::vector<unsigned char> wound_flag_;
   bool onCut(int v) const {
     return static_cast<std::size_t>(v) < wound_flag_.size() && (wound_flag_[v] & kOnCut) != 0;
   }
-  void setOnCut(int v);
-  void setWound(int v);
+  void setWoundFlag(int v, unsigned char flag);
   /// A crossing at x of the edge or face `verts` lies on an earlier cut in the tets around it.
   bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold

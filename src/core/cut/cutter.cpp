@@ -44,8 +44,6 @@ Cutter::Cutter(TetMesh* mesh, const CutterOptions& options) : mesh_(mesh), optio
 void Cutter::reset() {
   swept_valid_ = false;
   pending_.clear();
-  on_cut_.clear();
-  wound_.clear();
   wound_flag_.clear();
   marked_.clear();
   marked_at_.clear();
@@ -229,14 +227,9 @@ void Cutter::follow(const ChangeRecord& change) {
     pending_of_.resize(mesh_->tetSlots(), -1);
   for (int t : change.removed_tets) pending_of_[t] = -1;
   for (const auto& [gone, survivor] : change.merged_vertices) {
-    if (on_cut_.erase(gone)) {
-      wound_flag_[gone] &= ~kOnCut;
-      setOnCut(survivor);
-    }
-    if (wound_.erase(gone)) {
-      wound_flag_[gone] &= ~kWound;
-      setWound(survivor);
-    }
+    if (static_cast<std::size_t>(gone) >= wound_flag_.size() || !wound_flag_[gone]) continue;
+    setWoundFlag(survivor, wound_flag_[gone]);
+    wound_flag_[gone] = 0;
   }
   refreshGrid(change);
 }
@@ -364,7 +357,7 @@ void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
   // A point nearer a corner than this would only make a needle: keep it a little inside.
   s = std::clamp(s, 0.05, 0.95);
   const int v = mesh_->addVertex({{a, 1.0 - s}, {b, s}}, change);
-  setWound(v);
+  setWoundFlag(v, kWound);
   for (const Coarse& c : around) {
     const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
     Pending& p = pending_[pid];
@@ -412,7 +405,7 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
   Vec3 w = weights.cwiseMax(0.05);
   w /= w.sum();
   const int v = mesh_->addVertex({{face[0], w[0]}, {face[1], w[1]}, {face[2], w[2]}}, change);
-  setWound(v);
+  setWoundFlag(v, kWound);
   for (const Coarse& c : around) {
     const int pid = c.pending >= 0 ? c.pending : makePending(c.tet);
     Pending& p = pending_[pid];
@@ -446,7 +439,7 @@ void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& nor
     for (int e = 0; e < 6; ++e)
       if (p.cut.edge_point[e] >= 0 && (kTetEdge[e][0] == i || kTetEdge[e][1] == i)) return;
   }
-  setOnCut(v);
+  setWoundFlag(v, kOnCut);
   std::vector<int> around = mesh_->vertexTets(v);
   for (int t : around) {
     const int pid = pending_of_[t];
@@ -795,8 +788,7 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
       }
       change->append(local);
       ++counts_.separated_vertices;
-      if (onCut(v)) setOnCut(copy);
-      if (wound_.count(v)) setWound(copy);
+      if (onWound(v)) setWoundFlag(copy, wound_flag_[v]);
       for (auto [key, moves] : marks) {
         if (!unmark(key) || !moves) continue;
         for (int& x : key)
@@ -831,8 +823,9 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   hi.array() += snap_distance_;
   sweepQuery(from, to, lo, hi, &near_scratch_);
   const std::vector<Coarse> near = coarseOf(near_scratch_);
-  // The fronts of this tick lie in this box (moved by less than the snap distance): their
-  // searches filter these tets, as long as no tet is replaced before (see step()).
+  // The fronts of this tick lie in this box (moved by less than the snap distance) and within
+  // the sweep's reach: their searches filter these tets, as long as no tet is replaced before
+  // (see step()).
   swept_near_ = near_scratch_;
   swept_lo_ = lo;
   swept_hi_ = hi;
@@ -978,12 +971,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       if (distanceToSegment(x, seg[0], seg[1]) < front_gap) return true;
     return false;
   };
-  for (const auto& [a, b] : edges) {
-    if (onCut(a) || onCut(b)) continue;
-    if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b)) continue;
-    if ((mesh_->current(a).cwiseMin(mesh_->current(b)).array() > quad_hi.array()).any() ||
-        (mesh_->current(a).cwiseMax(mesh_->current(b)).array() < quad_lo.array()).any())
-      continue;
+  for (const auto& [a, b] : edges) {  // mayCross() held; registering points changes none of it
     for (const Triangle& tri : tris) {
       if (triangleArea(tri) <= tiny) continue;
       double s;
@@ -1051,16 +1039,9 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
   }
 }
 
-void Cutter::setOnCut(int v) {
-  on_cut_.insert(v);
+void Cutter::setWoundFlag(int v, unsigned char flag) {
   if (wound_flag_.size() <= static_cast<std::size_t>(v)) wound_flag_.resize(v + 1, 0);
-  wound_flag_[v] |= kOnCut;
-}
-
-void Cutter::setWound(int v) {
-  wound_.insert(v);
-  if (wound_flag_.size() <= static_cast<std::size_t>(v)) wound_flag_.resize(v + 1, 0);
-  wound_flag_[v] |= kWound;
+  wound_flag_[v] |= flag;
 }
 
 bool Cutter::mayJoin(int u, int v) const {
