@@ -468,3 +468,44 @@ TEST(Cutting, SweepBoundsCarriedAcrossTicksCutAsFreshOnesDo) {
     }
   }
 }
+
+// A blade trembling hard inside its own wound leaves hundreds of vertices waiting to split (the
+// cut around them stays incomplete: sheets meeting at a crack front). They are tried again only
+// near what changed since the last try, not all of them on every tick that changes anything
+// (that made ticks of a hundred milliseconds); at the end of the stroke every one is tried.
+TEST(Cutting, WaitingVerticesAreTriedAgainOnlyNearChanges) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> tremble(0.0, 0.0003);
+  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.3, Vec3(1, 0.3, 0).normalized()));
+  const MeshData block = makeBlock();
+  TetMesh mesh(block.V, block.T);
+  Cutter cutter(&mesh, CutterOptions{});
+  long long waiting_ticks = 0;  // the waiting vertices summed over the ticks
+  int most_waiting = 0;
+  for (int k = 0; k <= 1000; ++k) {
+    const double s = 1.0 - std::abs(k / 500.0 - 1.0);  // out in 0.5 s, back in 0.5 s
+    const Vec3 origin(-0.065 + 0.13 * s + tremble(rng), 0.004 + tremble(rng), 0.05);
+    const Eigen::Quaterniond twist(Eigen::AngleAxisd(0.01 * tremble(rng) / 0.0001, Vec3::UnitZ()));
+    waiting_ticks += cutter.numDeferred();
+    most_waiting = std::max(most_waiting, cutter.numDeferred());
+    ChangeRecord change;
+    cutter.step(bladeFromPose(origin, tilt * twist, 0.04), &change);
+    cutter.tissueMoved(0.0);
+    if (k % 100 == 0) {
+      ASSERT_EQ(mesh.validate(), "") << "tick " << k;
+      ASSERT_EQ(cutter.validate(), "") << "tick " << k;
+    }
+  }
+  const long long tries = cutter.counts().separation_tries;
+  std::printf("waiting at most %d, %lld waiting-vertex ticks, %lld vertices tried\n", most_waiting,
+              waiting_ticks, tries);
+  EXPECT_GT(most_waiting, 300);
+  EXPECT_LT(tries, waiting_ticks / 4);
+  // The blade lifted: the stroke is over and every waiting vertex is tried once more.
+  const int waiting = cutter.numDeferred();
+  ChangeRecord change;
+  cutter.step(std::nullopt, &change);
+  EXPECT_GE(cutter.counts().separation_tries - tries, waiting);
+  EXPECT_EQ(mesh.validate(), "");
+  EXPECT_EQ(cutter.validate(), "");
+}

@@ -45,6 +45,7 @@ struct CutCounts {
   int created_tetrahedra = 0;    ///< tets they were replaced by (#CrT)
   double time_ms = 0.0;          ///< time in cutting (t.Repl)
   int separated_vertices = 0;    ///< vertex copies made to open the cut
+  long long separation_tries = 0;  ///< vertices whose split was simulated, summed over the calls
   int lifts = 0;                 ///< jumps treated as the blade lifted
   int refused = 0;               ///< replacements TetMesh refused (the cut left closed there)
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
@@ -134,10 +135,17 @@ class Cutter {
   bool nearWound(int v, double distance, const Vec3& normal) const;
   void subdivide(int pid, ChangeRecord* change);
   void finalize(int pid, ChangeRecord* change, std::vector<int>* touched);
-  void finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change);
-  void separate(const std::vector<int>& touched, ChangeRecord* change);
+  /// Replaces the pending tets the blade has left, then opens the cut where it can. At the end of
+  /// a stroke every waiting vertex is tried again (see separate()).
+  void finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change,
+                    bool stroke_end = false);
+  /// Splits the vertices of `touched`, and the waiting ones near a change since the last call (all
+  /// of them with `all_waiting`), where the boundary stays a 2-manifold; the others wait.
+  void separate(const std::vector<int>& touched, bool all_waiting, ChangeRecord* change);
   std::vector<std::vector<int>> groupsAround(int v) const;
-  std::set<int> safeSplits(const std::vector<int>& verts);
+  /// Of `verts`, those whose split must wait (sorted): splitting all the others, as separate()
+  /// does, keeps the boundary a 2-manifold.
+  std::vector<int> heldSplits(const std::vector<int>& verts);
   int addSteiner(const Pending& p, ChangeRecord* change);
   void dropUnusedSteiner(int* steiner, ChangeRecord* change);
   void setPieces(int pid, const std::vector<int>& pieces);
@@ -197,7 +205,12 @@ class Cutter {
   /// A crossing at x of the edge or face `verts` lies on an earlier cut in the tets around it.
   bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
-  std::set<std::array<int, 3>> marked_;  // cut faces not opened yet (sorted ids)
+  // Vertices of the tets and marks changed since separate() last ran (by the cutter or, through
+  // follow(), by collapse): a waiting vertex is tried again only within two rings of one of them,
+  // since whether it can split depends on nothing farther (see separate()).
+  std::vector<int> changed_near_;
+  void noteChanged(const ChangeRecord& change);
+  std::unordered_set<std::array<int, 3>, FaceHash> marked_;  // cut faces not opened (sorted ids)
   void mark(const std::array<int, 3>& face);
   bool unmark(const std::array<int, 3>& face);
   std::unordered_map<int, int> marked_at_;  // vertex -> number of marked faces holding it
@@ -218,6 +231,16 @@ class Cutter {
   mutable std::vector<unsigned> star_stamp_;
   mutable std::vector<int> star_place_;
   mutable unsigned star_call_ = 0;
+  std::vector<unsigned> ring_stamp_;  // separate()'s scratch: per vertex slot, its last call
+  unsigned ring_call_ = 0;
+  // heldSplits' scratch, per tet slot: the group each corner's vertex will use (-1: it does not
+  // split), the faces that open (bit f), the call that put it in the region; per vertex slot: a
+  // candidate that splits or is held back, the call that put it in the check.
+  std::vector<std::array<int, 4>> corner_group_;
+  std::vector<unsigned char> open_face_;
+  std::vector<unsigned> region_stamp_, check_stamp_;
+  unsigned region_call_ = 0, check_call_ = 0;
+  std::vector<unsigned char> split_state_;
   std::vector<unsigned> vertex_seen_;  // per vertex slot: seen_stamp_ when the sweep saw it
   unsigned seen_stamp_ = 0;
   std::vector<std::array<int, 3>> face_scratch_;

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <cstddef>
 #include <string>
 #include <utility>
 #include <vector>
@@ -18,6 +19,16 @@ using TetVerts = std::array<int, 4>;
 constexpr int kTetFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 /// The six edges of a tet as pairs of local vertices.
 constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
+/// Hash of a face named by its three vertex ids (sorted, as the maps of faces keep them).
+struct FaceHash {
+  std::size_t operator()(const std::array<int, 3>& k) const {
+    std::size_t h = static_cast<std::size_t>(k[0]) * 73856093u;
+    h ^= static_cast<std::size_t>(k[1]) * 19349663u;
+    h ^= static_cast<std::size_t>(k[2]) * 83492791u;
+    return h;
+  }
+};
 
 /// A new vertex is an affine combination of existing ones (weights sum to 1).
 struct VertexParent {

@@ -49,6 +49,7 @@ void Cutter::reset() {
   marked_at_.clear();
   previous_.reset();
   deferred_.clear();
+  changed_near_.clear();
   counts_ = CutCounts{};
   ++epoch_;
   separated_at_ = -1;
@@ -83,12 +84,14 @@ void Cutter::mark(const std::array<int, 3>& face) {
   if (marked_.insert(face).second) {
     ++epoch_;
     for (int v : face) ++marked_at_[v];
+    changed_near_.insert(changed_near_.end(), face.begin(), face.end());
   }
 }
 
 bool Cutter::unmark(const std::array<int, 3>& face) {
   if (!marked_.erase(face)) return false;
   ++epoch_;
+  changed_near_.insert(changed_near_.end(), face.begin(), face.end());
   for (int v : face)
     if (--marked_at_[v] == 0) marked_at_.erase(v);
   return true;
@@ -221,8 +224,22 @@ bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>
   return true;
 }
 
+void Cutter::noteChanged(const ChangeRecord& change) {
+  for (int t : change.added_tets)
+    if (mesh_->tetAlive(t))
+      for (int v : mesh_->tet(t)) changed_near_.push_back(v);
+  // A collapse also drops the tets around the merged edge: the survivor's neighbours held them.
+  for (const auto& merged : change.merged_vertices) {
+    const int survivor = merged.second;
+    if (!mesh_->vertexAlive(survivor)) continue;
+    for (int t : mesh_->vertexTets(survivor))
+      for (int v : mesh_->tet(t)) changed_near_.push_back(v);
+  }
+}
+
 void Cutter::follow(const ChangeRecord& change) {
   if (!change.empty()) ++epoch_;
+  noteChanged(change);
   if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
     pending_of_.resize(mesh_->tetSlots(), -1);
   for (int t : change.removed_tets) pending_of_[t] = -1;
@@ -536,7 +553,8 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
   ++epoch_;
 }
 
-void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change) {
+void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change,
+                          bool stroke_end) {
   std::vector<int> ids;
   for (auto& [pid, p] : pending_) {
     if (p.dirty) subdivide(pid, change);
@@ -554,8 +572,10 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
   }
   // Vertices waiting to split are tried again only when the mesh or the marks changed since the
   // last try: the separation depends on nothing else, so a retry would only defer them again.
-  if (!touched.empty() || (!deferred_.empty() && separated_at_ != epoch_))
-    separate(touched, change);
+  if (!touched.empty() || (!deferred_.empty() && (separated_at_ != epoch_ || stroke_end)))
+    separate(touched, stroke_end, change);
+  else if (deferred_.empty())
+    changed_near_.clear();  // nothing waits near these changes
 }
 
 std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
@@ -607,142 +627,231 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
   return groups;
 }
 
-std::set<int> Cutter::safeSplits(const std::vector<int>& verts) {
+std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   // Opening the cut splits vertices; a cut face opens where one of its vertices is split between
   // its two tets. While the blade is still cutting nearby, splitting some vertex may leave the
   // boundary pinched at a neighbour that cannot split yet (its star is still joined through tets
   // not cut yet). The separation is simulated first; a vertex whose split would pinch the
   // boundary waits (it is tried again on later ticks, when the cut around it is complete).
-  std::set<int> allowed;
-  for (int v : verts)
-    if (mesh_->vertexAlive(v)) allowed.insert(v);
-  using Key = std::int64_t;  // a vertex and the group of it a tet will use (-1: not split)
-  auto key = [](int v, int k) { return (static_cast<Key>(v) << 20) | static_cast<Key>(k + 1); };
-  for (int round = 0; round < 32; ++round) {
-    std::unordered_map<int, std::unordered_map<int, int>> group_of;
-    std::set<int> region;
-    for (int v : allowed) {
-      const auto groups = groupsAround(v);
-      if (groups.size() < 2) continue;
-      auto& g = group_of[v];
-      for (std::size_t k = 0; k < groups.size(); ++k)
-        for (int t : groups[k]) {
-          g[t] = static_cast<int>(k);
-          region.insert(t);
-        }
+  // The groups depend on the mesh and the marks only: taken once. Each tet of a splitting vertex's
+  // star records, at that vertex's corner, the group it will use (-1: the vertex does not split).
+  if (corner_group_.size() < static_cast<std::size_t>(mesh_->tetSlots())) {
+    corner_group_.resize(mesh_->tetSlots(), {-1, -1, -1, -1});
+    open_face_.resize(mesh_->tetSlots(), 0);
+    region_stamp_.resize(mesh_->tetSlots(), 0);
+  }
+  if (split_state_.size() < static_cast<std::size_t>(mesh_->vertexSlots())) {
+    split_state_.resize(mesh_->vertexSlots(), 0);
+    check_stamp_.resize(mesh_->vertexSlots(), 0);
+  }
+  constexpr unsigned char kSplits = 1, kHeld = 2;  // split_state_: a candidate, held back
+  std::vector<int> splitting, stars;
+  for (int v : verts) {
+    if (!mesh_->vertexAlive(v)) continue;
+    const auto groups = groupsAround(v);
+    if (groups.size() < 2) continue;
+    splitting.push_back(v);
+    split_state_[v] = kSplits;
+    for (std::size_t k = 0; k < groups.size(); ++k)
+      for (int t : groups[k]) {
+        corner_group_[t][localIndex(mesh_->tet(t), v)] = static_cast<int>(k);
+        stars.push_back(t);
+      }
+  }
+  // The result: the candidates held back (all of them if the rounds do not settle), sorted.
+  auto done = [&](bool settled) {
+    std::vector<int> result;
+    for (int v : splitting)
+      if (!settled || split_state_[v] == kHeld) result.push_back(v);
+    for (int t : stars) corner_group_[t] = {-1, -1, -1, -1};
+    for (int v : splitting) split_state_[v] = 0;
+    std::sort(result.begin(), result.end());
+    return result;
+  };
+  auto nextCall = [](std::vector<unsigned>* stamps, unsigned* call) {
+    if (++*call == 0) {
+      std::fill(stamps->begin(), stamps->end(), 0);
+      *call = 1;
     }
-    if (group_of.empty()) return allowed;
-    auto renamed = [&](int t, int x) {
-      auto it = group_of.find(x);
-      return key(x, it == group_of.end() ? -1 : it->second.at(t));
-    };
-    auto renamedFace = [&](int t, int f) {
-      const TetVerts& tv = mesh_->tet(t);
-      std::array<Key, 3> k{renamed(t, tv[kTetFace[f][0]]), renamed(t, tv[kTetFace[f][1]]),
-                           renamed(t, tv[kTetFace[f][2]])};
-      return k;
-    };
-    auto sortedKey = [](std::array<Key, 3> k) {
-      std::sort(k.begin(), k.end());
-      return k;
-    };
-    // Faces that open: shared by two tets of the region that will name them differently.
-    std::set<std::array<int, 3>> opening;
-    std::set<int> check;  // vertices whose boundary changes
+  };
+  using Key = std::int64_t;  // a vertex and the group of it a tet will use (-1: not split)
+  auto keyOf = [&](int t, int corner) {
+    return (static_cast<Key>(mesh_->tet(t)[corner]) << 20) |
+           static_cast<Key>(corner_group_[t][corner] + 1);
+  };
+  std::vector<int> region, opened, check, held;
+  struct FanEdge {
+    Key copy, prev, next;  // around the copy of the vertex, the boundary runs prev -> next
+  };
+  std::vector<FanEdge> fan;
+  for (int round = 0; round < 32; ++round) {
+    nextCall(&region_stamp_, &region_call_);
+    region.clear();
+    for (int v : splitting)
+      if (split_state_[v] == kSplits)
+        for (int t : mesh_->vertexTets(v))
+          if (region_stamp_[t] != region_call_) {
+            region_stamp_[t] = region_call_;
+            region.push_back(t);
+          }
+    if (region.empty()) return done(true);
+    // Faces that open: shared by two tets of which one names a vertex of it differently (after
+    // the split) from the other. Flagged on both sides; their vertices' boundaries change.
+    nextCall(&check_stamp_, &check_call_);
+    opened.clear();
+    check.clear();
     for (int t : region) {
       const TetVerts& tv = mesh_->tet(t);
       for (int f = 0; f < 4; ++f) {
         const int u = mesh_->neighbor(t, f);
         if (u < 0) continue;
-        const int g = localIndex(mesh_->tet(u), -1);  // unused; keeps the loop simple
-        (void)g;
         const TetVerts& uv = mesh_->tet(u);
-        const int back = [&] {
-          for (int h = 0; h < 4; ++h)
-            if (mesh_->neighbor(u, h) == t) return h;
-          return -1;
-        }();
-        (void)uv;
-        if (sortedKey(renamedFace(t, f)) == sortedKey(renamedFace(u, back))) continue;
-        opening.insert(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]));
-        for (int k = 0; k < 3; ++k) check.insert(tv[kTetFace[f][k]]);
+        bool same = true;
+        for (int j = 0; j < 3 && same; ++j) {
+          const int c = kTetFace[f][j];
+          same = corner_group_[t][c] == corner_group_[u][localIndex(uv, tv[c])];
+        }
+        if (same) continue;
+        if (!(open_face_[t] & (1 << f))) {
+          int back = 0;
+          while (mesh_->neighbor(u, back) != t) ++back;
+          open_face_[t] |= static_cast<unsigned char>(1 << f);
+          open_face_[u] |= static_cast<unsigned char>(1 << back);
+          opened.push_back(t);
+          opened.push_back(u);
+        }
+        for (int j = 0; j < 3; ++j) {
+          const int x = tv[kTetFace[f][j]];
+          if (check_stamp_[x] == check_call_) continue;
+          check_stamp_[x] = check_call_;
+          check.push_back(x);
+        }
       }
     }
-    bool changed = false;
+    held.clear();
     for (int w : check) {
-      // The boundary triangles around each copy of w after the split, as links next -> prev.
-      std::map<Key, std::vector<std::pair<Key, Key>>> fans;
+      // The boundary triangles around each copy of w after the split, as links prev -> next:
+      // each copy's must close into one cycle (a disc), or the boundary is pinched at w.
+      fan.clear();
       for (int t : mesh_->vertexTets(w)) {
         const TetVerts& tv = mesh_->tet(t);
         for (int f = 0; f < 4; ++f) {
           if (tv[f] == w) continue;
-          const int u = mesh_->neighbor(t, f);
-          bool boundary = u < 0;
-          if (!boundary) {
-            const auto k = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
-            boundary = opening.count(k) > 0;
-          }
-          if (!boundary) continue;
-          const auto face = renamedFace(t, f);
-          for (int k = 0; k < 3; ++k)
-            if (tv[kTetFace[f][k]] == w)
-              fans[face[k]].emplace_back(face[(k + 1) % 3], face[(k + 2) % 3]);
+          if (mesh_->neighbor(t, f) >= 0 && !(open_face_[t] & (1 << f))) continue;
+          for (int j = 0; j < 3; ++j)
+            if (tv[kTetFace[f][j]] == w)
+              fan.push_back({keyOf(t, kTetFace[f][j]), keyOf(t, kTetFace[f][(j + 2) % 3]),
+                             keyOf(t, kTetFace[f][(j + 1) % 3])});
         }
       }
+      std::sort(fan.begin(), fan.end(), [](const FanEdge& a, const FanEdge& b) {
+        return a.copy != b.copy ? a.copy < b.copy : a.prev < b.prev;
+      });
       bool manifold = true;
-      for (const auto& [copy, ring] : fans) {
-        std::map<Key, Key> next;
-        for (const auto& [n, p] : ring) {
-          if (next.count(p)) manifold = false;
-          next[p] = n;
-        }
-        if (!manifold) break;
-        Key start = ring.front().second, cur = start;
+      for (std::size_t i = 0; i < fan.size() && manifold;) {
+        std::size_t j = i;
+        while (j < fan.size() && fan[j].copy == fan[i].copy) ++j;
+        for (std::size_t k = i + 1; k < j && manifold; ++k) manifold = fan[k].prev != fan[k - 1].prev;
+        // Walk the links from the first: a single cycle through all of them.
+        const Key start = fan[i].prev;
+        Key cur = start;
         std::size_t steps = 0;
-        do {
-          auto it = next.find(cur);
-          if (it == next.end()) break;
-          cur = it->second;
+        while (manifold) {
+          const auto it = std::lower_bound(
+              fan.begin() + i, fan.begin() + j, cur,
+              [](const FanEdge& e, Key prev) { return e.prev < prev; });
+          if (it == fan.begin() + j || it->prev != cur) break;
+          cur = it->next;
           ++steps;
-        } while (cur != start && steps <= ring.size());
-        if (steps != ring.size() || cur != start) manifold = false;
-        if (!manifold) break;
+          if (cur == start || steps > j - i) break;
+        }
+        if (steps != j - i || cur != start) manifold = false;
+        i = j;
       }
       if (manifold) continue;
       // Hold back every split that opens a face at w.
       for (int t : mesh_->vertexTets(w)) {
         const TetVerts& tv = mesh_->tet(t);
         for (int f = 0; f < 4; ++f) {
-          if (tv[f] == w) continue;
-          const auto k = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
-          if (!opening.count(k)) continue;
-          for (int x : k)
-            if (group_of.count(x) && allowed.erase(x)) changed = true;
+          if (tv[f] == w || !(open_face_[t] & (1 << f))) continue;
+          for (int j = 0; j < 3; ++j)
+            if (split_state_[tv[kTetFace[f][j]]] == kSplits) held.push_back(tv[kTetFace[f][j]]);
         }
       }
     }
-    if (!changed) return allowed;
+    for (int t : opened) open_face_[t] = 0;
+    if (held.empty()) return done(true);
+    for (int x : held) {
+      if (split_state_[x] != kSplits) continue;
+      split_state_[x] = kHeld;
+      for (int t : mesh_->vertexTets(x)) corner_group_[t][localIndex(mesh_->tet(t), x)] = -1;
+    }
   }
-  return {};
+  return done(false);
 }
 
-void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) {
+void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, ChangeRecord* change) {
+  // Whether a vertex can split depends on its star and marks (its groups), on the faces it and its
+  // neighbours would open (their vertices are in its first ring) and on the boundary fans around
+  // those (tets of its second ring). A waiting vertex farther than two rings from every change
+  // since the last try is left waiting, untried. Tried together with far waiting vertices it
+  // might sometimes pass (the simulation holds back whole neighbourhoods at a pinch), so at the
+  // end of a stroke every waiting vertex is tried. On a blade trembling inside its own wound
+  // thousands wait, and trying them all on every tick made ticks of a hundred milliseconds.
+  noteChanged(*change);
+  if (ring_stamp_.size() < static_cast<std::size_t>(mesh_->vertexSlots()))
+    ring_stamp_.resize(mesh_->vertexSlots(), 0);
+  if (++ring_call_ == 0) {
+    std::fill(ring_stamp_.begin(), ring_stamp_.end(), 0);
+    ring_call_ = 1;
+  }
+  std::vector<int> ring;
+  for (int v : changed_near_)
+    if (mesh_->vertexAlive(v) && ring_stamp_[v] != ring_call_) {
+      ring_stamp_[v] = ring_call_;
+      ring.push_back(v);
+    }
+  changed_near_.clear();
+  for (int step = 0; step < 2 && !deferred_.empty(); ++step) {
+    std::vector<int> next;
+    for (int v : ring)
+      for (int t : mesh_->vertexTets(v))
+        for (int x : mesh_->tet(t))
+          if (ring_stamp_[x] != ring_call_) {
+            ring_stamp_[x] = ring_call_;
+            next.push_back(x);
+          }
+    ring.swap(next);
+  }
   std::vector<int> touched = touched_in;
-  std::sort(touched.begin(), touched.end());
-  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-  for (int v : deferred_) touched.push_back(v);
+  std::set<int> before;  // the waiting vertices tried again
+  for (auto it = deferred_.begin(); it != deferred_.end();) {
+    if (!all_waiting && mesh_->vertexAlive(*it) && ring_stamp_[*it] != ring_call_) {
+      ++it;  // waits on, untried
+      continue;
+    }
+    before.insert(*it);
+    touched.push_back(*it);
+    it = deferred_.erase(it);
+  }
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   separated_at_ = epoch_;  // before the splits below: those make it try again next tick
-  const std::set<int> allowed = safeSplits(touched);
-  const std::set<int> before = std::move(deferred_);
-  deferred_.clear();
+  counts_.separation_tries += static_cast<long long>(touched.size());
+  const std::vector<int> held = heldSplits(touched);
+  std::set<int> after;  // the vertices tried that wait now
+  bool reclosed = false;  // a refused split closed faces for good: groups may have merged
   for (int v : touched) {
     if (!mesh_->vertexAlive(v)) continue;
+    const bool waits = std::binary_search(held.begin(), held.end(), v);
+    if (waits && !reclosed) {
+      after.insert(v);  // held with two groups or more; splits before it did not change them
+      continue;
+    }
     const auto groups = groupsAround(v);
     if (groups.size() < 2) continue;
-    if (!allowed.count(v)) {
-      deferred_.insert(v);
+    if (waits) {
+      after.insert(v);
       continue;
     }
     // The group holding a pending tet's pieces keeps the vertex, so pending state stays as is.
@@ -784,9 +893,11 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
         local.append(gone);
         change->append(local);
         for (const auto& [key, moves] : marks) unmark(key);
+        reclosed = true;
         continue;
       }
       change->append(local);
+      noteChanged(local);  // tried again next time, around the split
       ++counts_.separated_vertices;
       if (onWound(v)) setWoundFlag(copy, wound_flag_[v]);
       for (auto [key, moves] : marks) {
@@ -810,7 +921,8 @@ void Cutter::separate(const std::vector<int>& touched_in, ChangeRecord* change) 
       }
     }
   }
-  if (deferred_ != before) ++epoch_;
+  if (after != before) ++epoch_;
+  deferred_.insert(after.begin(), after.end());
 }
 
 void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change) {
@@ -1115,7 +1227,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   }
   auto endStroke = [&] {
     crossFront({{previous_->base, previous_->tip}}, last_motion_, change);
-    finalizeLeft(std::nullopt, change);
+    finalizeLeft(std::nullopt, change, true);
   };
   if (!blade) {
     if (previous_) endStroke();

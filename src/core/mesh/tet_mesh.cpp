@@ -36,15 +36,6 @@ int localFace(const TetVerts& t, int a, int b, int c) {
   return -1;
 }
 
-struct FaceKeyHash {
-  std::size_t operator()(const FaceKey& k) const {
-    std::size_t h = static_cast<std::size_t>(k[0]) * 73856093u;
-    h ^= static_cast<std::size_t>(k[1]) * 19349663u;
-    h ^= static_cast<std::size_t>(k[2]) * 83492791u;
-    return h;
-  }
-};
-
 }  // namespace
 
 double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
@@ -176,7 +167,7 @@ TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
     for (int v : tv) vertex_tets_[v].push_back(t);
   }
   // Match faces globally once; later changes match locally.
-  std::unordered_map<FaceKey, std::pair<int, int>, FaceKeyHash> open;
+  std::unordered_map<FaceKey, std::pair<int, int>, FaceHash> open;
   open.reserve(static_cast<std::size_t>(nt) * 2);
   for (int t = 0; t < nt; ++t) {
     for (int f = 0; f < 4; ++f) {
@@ -372,7 +363,7 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
   for (int t : remove)
     if (t < 0 || t >= tetSlots() || !tet_alive_[t])
       throw std::logic_error("TetMesh::replaceTets: removing dead tet " + std::to_string(t));
-  std::unordered_map<FaceKey, int, FaceKeyHash> new_faces;
+  std::unordered_map<FaceKey, int, FaceHash> new_faces;
   for (const TetVerts& tv : add) {
     for (int i = 0; i < 4; ++i) {
       if (tv[i] < 0 || tv[i] >= vertexSlots() || !vertex_alive_[tv[i]])
