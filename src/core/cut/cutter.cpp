@@ -571,7 +571,8 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
     finalize(pid, change, &touched);
   }
   // Vertices waiting to split are tried again only when the mesh or the marks changed since the
-  // last try: the separation depends on nothing else, so a retry would only defer them again.
+  // last try (the separation depends on nothing else, so a retry would only defer them again),
+  // and all of them once a stroke ends (see separate()).
   if (!touched.empty() || (!deferred_.empty() && (separated_at_ != epoch_ || stroke_end)))
     separate(touched, stroke_end, change);
   else if (deferred_.empty())
@@ -751,7 +752,8 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
       for (std::size_t i = 0; i < fan.size() && manifold;) {
         std::size_t j = i;
         while (j < fan.size() && fan[j].copy == fan[i].copy) ++j;
-        for (std::size_t k = i + 1; k < j && manifold; ++k) manifold = fan[k].prev != fan[k - 1].prev;
+        for (std::size_t k = i + 1; k < j && manifold; ++k)
+          manifold = fan[k].prev != fan[k - 1].prev;  // one link out of each
         // Walk the links from the first: a single cycle through all of them.
         const Key start = fan[i].prev;
         Key cur = start;
