@@ -288,8 +288,9 @@ int main(int argc, char** argv) {
     std::printf("splits      ");
     for (int k = 0; k < static_cast<int>(kinds.size()); ++k)
       if (kinds[k]) std::printf("%s %d  ", splitKindName(static_cast<SplitKind>(k)), kinds[k]);
-    std::printf(" separated vertices %d, vertices waiting to separate %d\n",
-                tissue->cutter().counts().separated_vertices, tissue->cutter().numDeferred());
+    std::printf(" separated vertices %d, vertices waiting to separate %d (%lld splits simulated)\n",
+                tissue->cutter().counts().separated_vertices, tissue->cutter().numDeferred(),
+                tissue->cutter().counts().separation_tries);
     std::printf("replay      %lld ticks (%.3f simulated s) in %.3f s wall: real-time factor %.2f\n",
                 ticks + 1, (ticks + 1) * dt, wall_s, stats.ticks.real_time_factor);
   }
