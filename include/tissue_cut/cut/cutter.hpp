@@ -91,10 +91,11 @@ class Cutter {
   /// an edge near such an end (see woundAround); a new edge far from any wound end would be cut.
   bool mayJoin(int u, int v) const;
   const CutCounts& counts() const { return counts_; }
-  /// Changes whenever something isBusy() or the separation of the cut depends on may have changed
-  /// (tets replaced or made pending, pending tets finished, cut faces marked or opened, vertices
-  /// deferred or split, collapses followed): between two equal values, isBusy() answers alike.
-  long long stateEpoch() const { return epoch_; }
+  /// Changes whenever something isBusy() depends on may have changed (tets replaced or made
+  /// pending, pending tets finished, cut faces marked or opened, vertices deferred or split):
+  /// between two equal values, isBusy() answers alike. Collapses followed do not change it: they
+  /// happen only where no vertex is busy, and leave every vertex's answer as it was.
+  long long stateEpoch() const { return busy_epoch_; }
   /// Mean rest edge length of the mesh the cutter started on [m].
   double meanEdge() const { return mean_edge_; }
   /// Resets all cut state (after the mesh was replaced).
@@ -215,7 +216,12 @@ class Cutter {
   bool unmark(const std::array<int, 3>& face);
   std::unordered_map<int, int> marked_at_;  // vertex -> number of marked faces holding it
   CutCounts counts_;
-  long long epoch_ = 0;         // see stateEpoch()
+  long long epoch_ = 0;  // changes with anything the separation depends on (collapses too)
+  long long busy_epoch_ = 0;  // see stateEpoch()
+  void stateChanged() {
+    ++epoch_;
+    ++busy_epoch_;
+  }
   long long separated_at_ = -1;  // epoch_ when separate() last started
   std::string refusal_;  // the first refused replacement of this tick
   // Scratch buffers of one tick, kept for their capacity.

@@ -51,7 +51,7 @@ void Cutter::reset() {
   deferred_.clear();
   changed_near_.clear();
   counts_ = CutCounts{};
-  ++epoch_;
+  stateChanged();
   separated_at_ = -1;
   pending_of_.assign(mesh_->tetSlots(), -1);
   double sum = 0.0;
@@ -82,7 +82,7 @@ void Cutter::mark(const std::array<int, 3>& face) {
   const int t1 = mesh_->faceTet(face[0], face[1], face[2]);
   if (t1 < 0 || mesh_->faceTet(face[0], face[1], face[2], t1) < 0) return;
   if (marked_.insert(face).second) {
-    ++epoch_;
+    stateChanged();
     for (int v : face) ++marked_at_[v];
     changed_near_.insert(changed_near_.end(), face.begin(), face.end());
   }
@@ -90,7 +90,7 @@ void Cutter::mark(const std::array<int, 3>& face) {
 
 bool Cutter::unmark(const std::array<int, 3>& face) {
   if (!marked_.erase(face)) return false;
-  ++epoch_;
+  stateChanged();
   changed_near_.insert(changed_near_.end(), face.begin(), face.end());
   for (int v : face)
     if (--marked_at_[v] == 0) marked_at_.erase(v);
@@ -217,7 +217,7 @@ bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>
   if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
     pending_of_.resize(mesh_->tetSlots(), -1);
   for (int t : remove) pending_of_[t] = -1;
-  ++epoch_;
+  stateChanged();
   refreshGrid(local);
   change->append(local);
   if (ids) *ids = std::move(added);
@@ -238,6 +238,8 @@ void Cutter::noteChanged(const ChangeRecord& change) {
 }
 
 void Cutter::follow(const ChangeRecord& change) {
+  // A collapse changes no vertex's busy state (it works only where none is busy), but it may
+  // let a waiting vertex split.
   if (!change.empty()) ++epoch_;
   noteChanged(change);
   if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
@@ -327,7 +329,7 @@ int Cutter::makePending(int tet) {
   for (int c = 0; c < 4; ++c) p.cut.on_cut[c] = onCut(p.cut.corner[c]);
   p.pieces = {tet};
   pending_of_[tet] = pid;
-  ++epoch_;
+  stateChanged();
   return pid;
 }
 
@@ -528,7 +530,7 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
       for (int t : p.pieces) pending_of_[t] = -1;
       dropUnusedSteiner(&p.steiner, change);
       pending_.erase(pid);
-      ++epoch_;
+      stateChanged();
       return;
     }
     dropUnusedSteiner(&p.steiner, change);
@@ -550,7 +552,7 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
     change->append(local);
   }
   pending_.erase(pid);
-  ++epoch_;
+  stateChanged();
 }
 
 void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change,
@@ -923,7 +925,7 @@ void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, Chan
       }
     }
   }
-  if (after != before) ++epoch_;
+  if (after != before) stateChanged();
   deferred_.insert(after.begin(), after.end());
 }
 
