@@ -27,18 +27,26 @@ std::array<Vec3, 4> restCorners(const TetMesh& mesh, int t, int v, const Vec3& p
 
 // Worst rest Q of v's star with v at p; -1 when a tet is not sound. Stops at the first tet no
 // better than `floor` (its Q is returned): the caller only wants to know whether p beats it.
-// `first` is looked at first (the tet that was worst before: the likeliest to stop it).
+// star[first] is looked at first (the tet that was worst before: the likeliest to stop it).
+// When it looks at every tet, *worst_at is the place in the star of the worst (the first of
+// equals).
 double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const Vec3& p,
-                 double floor, int first) {
+                 double floor, int first, int* worst_at) {
   double worst = 1.0;
-  auto look = [&](int t) {
-    const auto c = restCorners(mesh, t, v, p);
+  double lowest = 2.0;  // the lowest Q seen, at star[*worst_at]
+  auto look = [&](int i) {
+    const auto c = restCorners(mesh, star[i], v, p);
     if (!isSoundTet(c[0], c[1], c[2], c[3])) return worst = -1.0;
-    return worst = std::min(worst, tetQuality(c[0], c[1], c[2], c[3]));
+    const double q = tetQuality(c[0], c[1], c[2], c[3]);
+    if (q < lowest || (q == lowest && i < *worst_at)) {
+      lowest = q;
+      *worst_at = i;
+    }
+    return worst = std::min(worst, q);
   };
   if (look(first) <= floor) return worst;
-  for (int t : star)
-    if (t != first && look(t) <= floor) return worst;
+  for (int i = 0; i < static_cast<int>(star.size()); ++i)
+    if (i != first && look(i) <= floor) return worst;
   return worst;
 }
 
@@ -106,8 +114,15 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
                   SmoothingCheck* check) {
   SmoothingCheck out;
   const std::vector<int> star = mesh->vertexTets(v);
+  // The star's qualities where v is: the worst, and the first tet that has it.
   out.worst_before = 1.0;
-  for (int t : star) out.worst_before = std::min(out.worst_before, restQuality(*mesh, t));
+  int worst_at = 0;
+  double worst_q = 2.0;
+  for (int i = 0; i < static_cast<int>(star.size()); ++i) {
+    const double q = restQuality(*mesh, star[i]);
+    out.worst_before = std::min(out.worst_before, q);
+    if (q < worst_q) worst_q = q, worst_at = i;
+  }
   out.worst_after = out.worst_before;
   Vec3 dir = Vec3::Zero();
   out.freedom = vertexFreedom(*mesh, v, &dir);
@@ -131,24 +146,21 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
   Vec3 best = origin;
   double best_q = out.worst_before;
   for (int round = 0; round < 4; ++round) {
-    int worst_t = star[0];
-    double worst_q = 2.0;
-    for (int t : star) {
-      const auto c = restCorners(*mesh, t, v, best);
-      const double q = tetQuality(c[0], c[1], c[2], c[3]);
-      if (q < worst_q) worst_q = q, worst_t = t;
-    }
+    // The worst tet at the best position so far (known from the look that made it the best).
+    const int worst_t = worst_at;
     // The worst tet's ideal apex as seen from the current best position's opposite face.
-    const Vec3 targets[3] = {mean_ideal, mean_link, idealApex(*mesh, worst_t, v)};
+    const Vec3 targets[3] = {mean_ideal, mean_link, idealApex(*mesh, star[worst_t], v)};
     const Vec3 from = best;
     bool improved = false;
     for (const Vec3& target : targets)
       for (double step : {1.0, 0.5, 0.25, 0.125}) {
         const Vec3 p = project(out.freedom, dir, origin, from + step * (target - from));
-        const double q = worstWith(*mesh, star, v, p, best_q + 1e-12, worst_t);
-        if (q > best_q + 1e-12) {
+        int at = static_cast<int>(star.size());
+        const double q = worstWith(*mesh, star, v, p, best_q + 1e-12, worst_t, &at);
+        if (q > best_q + 1e-12) {  // every tet was looked at: `at` is the worst's place
           best_q = q;
           best = p;
+          worst_at = at;
           improved = true;
         }
       }
