@@ -87,6 +87,25 @@ std::vector<double> pieceVolumes(const TetMesh& mesh) {
 
 const double kBlockVolume = 0.1 * 0.06 * 0.03;
 
+/// A scalpel tilted 0.3 rad over the block, 5 cm up with a 4 cm blade, trembling: each pose is off
+/// by Gaussian noise of `sigma` m in x and y and sigma / 0.01 rad of twist about z.
+class TremblingScalpel {
+ public:
+  TremblingScalpel(unsigned seed, double sigma) : rng_(seed), tremble_(0.0, sigma) {}
+  /// The blade at fraction s of the stroke from x = -65 mm to +65 mm along y = 4 mm.
+  BladeSegment at(double s) {
+    const Vec3 origin(-0.065 + 0.13 * s + tremble_(rng_), 0.004 + tremble_(rng_), 0.05);
+    const double turn = 0.01 * tremble_(rng_) / 0.0001;
+    const Eigen::Quaterniond twist(Eigen::AngleAxisd(turn, Vec3::UnitZ()));
+    return bladeFromPose(origin, tilt_ * twist, 0.04);
+  }
+
+ private:
+  std::mt19937 rng_;
+  std::normal_distribution<double> tremble_;
+  const Eigen::Quaterniond tilt_{Eigen::AngleAxisd(0.3, Vec3(1, 0.3, 0).normalized())};
+};
+
 }  // namespace
 
 TEST(Cutting, SeveringCutMakesTwoPiecesWhoseVolumesAddUp) {
@@ -425,16 +444,10 @@ TEST(SweepGeometry, SegmentTetGapIsALowerBoundOfTheDistanceAndATightOne) {
 // tick; one told that the tissue stays still reuses its bounds across ticks. Both must cut the
 // same: a tilted trembling stroke out and back along its own wound.
 TEST(Cutting, SweepBoundsCarriedAcrossTicksCutAsFreshOnesDo) {
-  std::mt19937 rng(11);
-  std::normal_distribution<double> tremble(0.0, 0.0001);
-  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.3, Vec3(1, 0.3, 0).normalized()));
+  TremblingScalpel scalpel(11, 0.0001);
   std::vector<BladeSegment> blades;
-  for (int k = 0; k <= 1000; ++k) {
-    const double s = 1.0 - std::abs(k / 500.0 - 1.0);  // out in 0.5 s, back in 0.5 s
-    const Vec3 origin(-0.065 + 0.13 * s + tremble(rng), 0.004 + tremble(rng), 0.05);
-    const Eigen::Quaterniond twist(Eigen::AngleAxisd(0.01 * tremble(rng) / 0.0001, Vec3::UnitZ()));
-    blades.push_back(bladeFromPose(origin, tilt * twist, 0.04));
-  }
+  for (int k = 0; k <= 1000; ++k)
+    blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));  // out in 0.5 s, back in 0.5
   const MeshData block = makeBlock();
   auto cut = [&](bool told, TetMesh* mesh) {
     Cutter cutter(mesh, CutterOptions{});
@@ -476,22 +489,18 @@ TEST(Cutting, SweepBoundsCarriedAcrossTicksCutAsFreshOnesDo) {
 // near what changed since the last try, not all of them on every tick that changes anything
 // (that made ticks of a hundred milliseconds); at the end of the stroke every one is tried.
 TEST(Cutting, WaitingVerticesAreTriedAgainOnlyNearChanges) {
-  std::mt19937 rng(11);
-  std::normal_distribution<double> tremble(0.0, 0.0003);
-  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.3, Vec3(1, 0.3, 0).normalized()));
+  TremblingScalpel scalpel(11, 0.0003);
   const MeshData block = makeBlock();
   TetMesh mesh(block.V, block.T);
   Cutter cutter(&mesh, CutterOptions{});
   long long waiting_ticks = 0;  // the waiting vertices summed over the ticks
   int most_waiting = 0;
   for (int k = 0; k <= 1000; ++k) {
-    const double s = 1.0 - std::abs(k / 500.0 - 1.0);  // out in 0.5 s, back in 0.5 s
-    const Vec3 origin(-0.065 + 0.13 * s + tremble(rng), 0.004 + tremble(rng), 0.05);
-    const Eigen::Quaterniond twist(Eigen::AngleAxisd(0.01 * tremble(rng) / 0.0001, Vec3::UnitZ()));
+    const BladeSegment blade = scalpel.at(1.0 - std::abs(k / 500.0 - 1.0));  // out and back in 1 s
     waiting_ticks += cutter.numDeferred();
     most_waiting = std::max(most_waiting, cutter.numDeferred());
     ChangeRecord change;
-    cutter.step(bladeFromPose(origin, tilt * twist, 0.04), &change);
+    cutter.step(blade, &change);
     cutter.tissueMoved(0.0);
     if (k % 100 == 0) {
       ASSERT_EQ(mesh.validate(), "") << "tick " << k;
@@ -518,9 +527,7 @@ TEST(Cutting, WaitingVerticesAreTriedAgainOnlyNearChanges) {
 // while a trembling blade is inside the block, with tets pending, faces marked and vertices
 // waiting to split.
 TEST(Cutting, CollapsesLeaveEveryVertexBusyAsItWas) {
-  std::mt19937 rng(5);
-  std::normal_distribution<double> tremble(0.0, 0.0003);
-  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.3, Vec3(1, 0.3, 0).normalized()));
+  TremblingScalpel scalpel(5, 0.0003);
   const MeshData block = makeBlock();
   TetMesh mesh(block.V, block.T);
   Cutter cutter(&mesh, CutterOptions{});
@@ -555,10 +562,8 @@ TEST(Cutting, CollapsesLeaveEveryVertexBusyAsItWas) {
   long long last_epoch = -1;
   int collapsing_ticks = 0, busy_seen = 0, answers_changed = 0;
   for (int k = 0; k <= 400; ++k) {
-    const Vec3 origin(-0.065 + 0.13 * k / 500.0 + tremble(rng), 0.004 + tremble(rng), 0.05);
-    const Eigen::Quaterniond twist(Eigen::AngleAxisd(0.01 * tremble(rng) / 0.0001, Vec3::UnitZ()));
     ChangeRecord change;
-    cutter.step(bladeFromPose(origin, tilt * twist, 0.04), &change);
+    cutter.step(scalpel.at(k / 500.0), &change);
     cutter.tissueMoved(0.0);
     follow(change);
     queue.queueFrom(change, isCreated);
