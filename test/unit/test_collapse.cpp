@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/topology.hpp"
+#include "tissue_cut/remesh/collapse_queue.hpp"
 #include "tissue_cut/tissue.hpp"
 #include "mesh_edits.hpp"
 
@@ -144,4 +146,60 @@ TEST(Collapse, WaitingTetsWakeWhenTheBusyStateChanges) {
   EXPECT_FALSE(out.empty()) << "the woken tets were worked";
   EXPECT_LT(queue.pending(), queued);
   EXPECT_EQ(mesh.validate(), "");
+}
+
+// A tet's work (collapse checks, flips, smoothing) can outlast the budget. Past it, a tet other
+// than the tick's first stops between steps and goes back to the queue, the next tick's first
+// to be worked: worked off over many ticks, the queue must end exactly where one worked off at
+// once ends. The budget is measured on a clock that advances 10 us a reading, so that it ends
+// inside tets' work at known places.
+TEST(Collapse, ATetStoppedAtTheBudgetFinishesLaterAsIfUninterrupted) {
+  const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
+  Tissue tissue(withCollapse(false, 0.06), makeBlock());
+  ASSERT_EQ(replay(tissue, path), "");
+  ChangeRecord all;  // every tet, as if the cut had just made it
+  for (int t = 0; t < tissue.mesh().tetSlots(); ++t)
+    if (tissue.mesh().tetAlive(t)) all.added_tets.push_back(t);
+  auto everyTet = [](int) { return true; };
+  auto noneBusy = [](int) { return false; };
+  const double tau = tissue.config().collapse.tau;
+
+  TetMesh at_once = tissue.mesh(), in_ticks = tissue.mesh();
+  CollapseQueue once(&at_once, tau, 0.0);
+  once.queueFrom(all, everyTet);
+  ChangeRecord change;
+  once.process(noneBusy, everyTet, &change);
+  EXPECT_EQ(once.pending(), 0);
+
+  CollapseQueue ticks(&in_ticks, tau, 35.0);
+  double clock = 0.0;
+  ticks.setBudgetClock([&] { return clock += 10.0; });
+  ticks.queueFrom(all, everyTet);
+  int calls = 0;
+  for (; calls < 100000 && ticks.pending() > 0; ++calls) {
+    ChangeRecord step;
+    ticks.process(noneBusy, everyTet, &step);
+  }
+  std::printf("%d collapses, %d flips, %d smoothing moves; in %d ticks, %d tets stopped\n",
+              once.counts().collapsed_edges, once.counts().flips, once.counts().smoothed_vertices,
+              calls, ticks.counts().stopped);
+  EXPECT_EQ(ticks.pending(), 0);
+  EXPECT_GT(ticks.counts().stopped, 20);
+  EXPECT_GT(once.counts().collapsed_edges + once.counts().smoothed_vertices, 20);
+  EXPECT_EQ(ticks.counts().collapsed_edges, once.counts().collapsed_edges);
+  EXPECT_EQ(ticks.counts().flips, once.counts().flips);
+  EXPECT_EQ(ticks.counts().smoothed_vertices, once.counts().smoothed_vertices);
+  ASSERT_EQ(in_ticks.validate(), "");
+  ASSERT_EQ(in_ticks.tetSlots(), at_once.tetSlots());
+  for (int t = 0; t < at_once.tetSlots(); ++t) {
+    ASSERT_EQ(in_ticks.tetAlive(t), at_once.tetAlive(t)) << "tet " << t;
+    if (at_once.tetAlive(t)) {
+      ASSERT_EQ(in_ticks.tet(t), at_once.tet(t)) << "tet " << t;
+    }
+  }
+  ASSERT_EQ(in_ticks.vertexSlots(), at_once.vertexSlots());
+  for (int v = 0; v < at_once.vertexSlots(); ++v)
+    if (at_once.vertexAlive(v)) {
+      ASSERT_EQ(in_ticks.rest(v), at_once.rest(v)) << "vertex " << v;
+    }
 }

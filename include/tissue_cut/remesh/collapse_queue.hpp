@@ -9,6 +9,7 @@
 
 #include <array>
 #include <functional>
+#include <optional>
 #include <queue>
 #include <unordered_map>
 #include <vector>
@@ -25,6 +26,7 @@ struct CollapseCounts {
   int rejected_link = 0, rejected_inversion = 0, rejected_quality = 0, rejected_boundary = 0;
   int smoothed_vertices = 0;  ///< accepted smoothing moves
   int flips = 0;              ///< accepted flips (2-3, edge removal, 2-2)
+  int stopped = 0;            ///< tets whose work stopped at the budget (finished later)
   double time_ms = 0.0;       ///< t.EC
 };
 
@@ -45,10 +47,15 @@ class CollapseQueue {
                ChangeRecord* change, bool busy_changed = true);
 
   /// Queued tets, those waiting for a busy neighbourhood included (some may have gone stale).
-  int pending() const { return static_cast<int>(heap_.size() + waiting_.size()); }
+  int pending() const {
+    return static_cast<int>(heap_.size() + waiting_.size() + (resume_ ? 1 : 0));
+  }
   const CollapseCounts& counts() const { return counts_; }
   void setTau(double tau) { tau_ = tau; }
   void setBudget(double budget_us) { budget_us_ = budget_us; }
+  /// The clock the budget is measured on [us, any origin]; null (the default): the steady clock.
+  /// A test gives one that advances a fixed step a reading, so that it knows where a budget ends.
+  void setBudgetClock(std::function<double()> now_us) { budget_clock_ = std::move(now_us); }
   /// Boundary collapses may tilt the boundary faces that move by up to `shape_tolerance` (relative
   /// to the larger of each face's longest edge and `length_floor` [m], see checkCollapse), as long
   /// as the net rest volume they change stays within `volume_budget` [m^3]. With a length floor,
@@ -95,15 +102,21 @@ class CollapseQueue {
   // vertices are not busy.
   bool flipBest(int t, const std::function<bool(int)>& busy,
                 const std::function<bool(int)>& created_by_cut, ChangeRecord* change);
+  // Smooths the first vertex of tv that can be; stops (setting *stopped) before trying another
+  // vertex once `stop` says so.
   bool smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
-                 ChangeRecord* change);
+                 ChangeRecord* change, const std::function<bool()>& stop, bool* stopped);
   static long long keyOf(int a, int b);
   bool alreadyRefused(int a, int b) const;
   void refused(int a, int b);
 
   TetMesh* mesh_;
   double tau_, budget_us_;
+  std::function<double()> budget_clock_;
   std::priority_queue<Entry> heap_;
+  // A tet whose work stopped at the budget: the next call works it first (taken off the heap
+  // once, so the heap's order is as if it had not stopped).
+  std::optional<Entry> resume_;
   std::vector<long long> vertex_stamp_;               // bumped when a vertex's star changes
   std::vector<Entry> waiting_;                        // busy this tick, back in the heap next tick
   std::unordered_map<long long, long long> refused_;  // edge or vertex -> its stamp when refused

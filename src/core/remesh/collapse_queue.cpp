@@ -25,6 +25,7 @@ CollapseQueue::CollapseQueue(TetMesh* mesh, double tau, double budget_us)
 
 void CollapseQueue::clear() {
   heap_ = {};
+  resume_.reset();
   waiting_.clear();
   vertex_stamp_.clear();
   moves_.clear();
@@ -303,11 +304,16 @@ void CollapseQueue::moveGhosts(int removed, int survivor) {
 }
 
 bool CollapseQueue::smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
-                              ChangeRecord* change) {
+                              ChangeRecord* change, const std::function<bool()>& stop,
+                              bool* stopped) {
   if (static_cast<int>(moves_.size()) < mesh_->vertexSlots())
     moves_.resize(mesh_->vertexSlots(), 0);
   for (int v : tv) {
     if ((pinned_ && pinned_(v)) || moves_[v] >= kMaxMoves || alreadyRefused(v, -1)) continue;
+    if (stop()) {
+      *stopped = true;
+      return false;
+    }
     ChangeRecord local;
     if (!smoothVertex(mesh_, v, kMinSmoothingGain, &local)) {
       refused(v, -1);
@@ -342,12 +348,19 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start)
         .count();
   };
+  const double budget_start = budget_clock_ ? budget_clock_() : 0.0;
+  auto spent_us = [&] { return budget_clock_ ? budget_clock_() - budget_start : elapsed_us(); };
   // At least one tet worked a tick, so that a small budget still makes progress; stale and busy
   // entries cost next to nothing and do not count.
   bool attempted = false;
-  while (!heap_.empty() && (!attempted || budget_us_ <= 0 || elapsed_us() < budget_us_)) {
-    const Entry e = heap_.top();
-    heap_.pop();
+  while ((resume_ || !heap_.empty()) &&
+         (!attempted || budget_us_ <= 0 || spent_us() < budget_us_)) {
+    const Entry e = resume_ ? *resume_ : heap_.top();
+    if (resume_) {
+      resume_.reset();
+    } else {
+      heap_.pop();
+    }
     // Gone (its slot may hold another tet): dropped. Its neighbourhood changed since: queued
     // again as it is now (touched() queues only the tets around the changed vertex itself).
     if (!mesh_->tetAlive(e.tet) || mesh_->tet(e.tet) != e.verts) continue;
@@ -360,10 +373,22 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
       continue;
     }
     queued_[e.tet].second = -1;  // worked: it may be queued again
+    const bool first = !attempted;
     attempted = true;
+    // A tet's work (six edges both ways, flips, smoothing up to four vertices at ~0.1 ms each)
+    // can take longer than the budget. Past it, a tet other than the tick's first stops between
+    // steps and is the next call's first (the refusals it met are remembered).
+    auto over = [&] { return !first && budget_us_ > 0 && spent_us() >= budget_us_; };
     if (collapseBest(e.verts, created_by_cut, change)) continue;
-    if (flips_ && flipBest(e.tet, busy, created_by_cut, change)) continue;
-    if (smoothing_) smoothAny(e.verts, created_by_cut, change);
+    bool stopped = flips_ && over();
+    if (!stopped && flips_ && flipBest(e.tet, busy, created_by_cut, change)) continue;
+    if (!stopped && smoothing_) smoothAny(e.verts, created_by_cut, change, over, &stopped);
+    if (stopped) {
+      ++counts_.stopped;
+      resume_ = e;
+      queued_[e.tet].second = e.stamp;
+      break;
+    }
   }
   counts_.time_ms += elapsed_us() / 1000.0;
 }
