@@ -44,12 +44,6 @@ void takeSnapshot(const Tissue& tissue, const std::optional<BladeSegment>& blade
   }
 }
 
-std::size_t SkinClassifier::KeyHash::operator()(const Key& k) const {
-  std::size_t h = 1469598103934665603ull;
-  for (int x : k.v) h = (h ^ static_cast<std::size_t>(x)) * 1099511628211ull;
-  return h;
-}
-
 SkinClassifier::SkinClassifier(const TetMesh& uncut) {
   Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
   double edge_sum = 0.0;
@@ -108,8 +102,7 @@ bool SkinClassifier::onSkin(const Vec3& p) const {
 }
 
 bool SkinClassifier::isSkin(const std::array<int, 3>& face, const std::vector<Vec3>& rest) {
-  Key key{face};
-  std::sort(key.v.begin(), key.v.end());
+  const std::array<int, 3> key = sortedFace(face[0], face[1], face[2]);
   auto it = cache_.find(key);
   if (it != cache_.end()) return it->second;
   if (cache_.size() > 1000000) cache_.clear();  // bounded: faces of a long session come and go

@@ -38,13 +38,6 @@ class SkinClassifier {
   bool isSkin(const std::array<int, 3>& face, const std::vector<Vec3>& rest);
 
  private:
-  struct Key {
-    std::array<int, 3> v;
-    bool operator==(const Key& o) const { return v == o.v; }
-  };
-  struct KeyHash {
-    std::size_t operator()(const Key& k) const;
-  };
   long long cellKey(int i, int j, int k) const;
   bool onSkin(const Vec3& p) const;
 
@@ -52,7 +45,7 @@ class SkinClassifier {
   std::unordered_map<long long, std::vector<int>> cells_;
   Vec3 origin_ = Vec3::Zero();
   double cell_ = 1.0, tolerance_ = 0.0;
-  std::unordered_map<Key, bool, KeyHash> cache_;
+  std::unordered_map<std::array<int, 3>, bool, FaceHash> cache_;  // by sortedFace()
 };
 
 /// How the markers look.

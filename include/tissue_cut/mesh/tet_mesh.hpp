@@ -20,6 +20,21 @@ constexpr int kTetFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 /// The six edges of a tet as pairs of local vertices.
 constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
+/// A face named by its three vertex ids, sorted: the same name from whichever tet or corner.
+inline std::array<int, 3> sortedFace(int a, int b, int c) {
+  if (a > b) std::swap(a, b);
+  if (b > c) std::swap(b, c);
+  if (a > b) std::swap(a, b);
+  return {a, b, c};
+}
+
+/// Where vertex v sits in tet t (0-3), or -1 when t does not hold it.
+inline int localIndex(const TetVerts& t, int v) {
+  for (int i = 0; i < 4; ++i)
+    if (t[i] == v) return i;
+  return -1;
+}
+
 /// Hash of a face named by its three vertex ids (sorted, as the maps of faces keep them).
 struct FaceHash {
   std::size_t operator()(const std::array<int, 3>& k) const {

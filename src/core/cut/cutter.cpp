@@ -14,18 +14,6 @@ namespace tissue_cut {
 
 namespace {
 
-std::array<int, 3> sortedFace(int a, int b, int c) {
-  std::array<int, 3> k{a, b, c};
-  std::sort(k.begin(), k.end());
-  return k;
-}
-
-int localIndex(const TetVerts& t, int v) {
-  for (int i = 0; i < 4; ++i)
-    if (t[i] == v) return i;
-  return -1;
-}
-
 void renameIn(TetCut* cut, int from, int to) {
   for (int& v : cut->corner)
     if (v == from) v = to;
@@ -33,6 +21,16 @@ void renameIn(TetCut* cut, int from, int to) {
     if (v == from) v = to;
   for (int& v : cut->face_point)
     if (v == from) v = to;
+}
+
+// A new mark for one pass over per-slot stamps, which grow to `slots` entries; when the counter
+// wraps, all are cleared so that no old mark equals the new one.
+void nextStamp(std::vector<unsigned>* stamps, unsigned* call, std::size_t slots) {
+  if (stamps->size() < slots) stamps->resize(slots, 0);
+  if (++*call == 0) {
+    std::fill(stamps->begin(), stamps->end(), 0);
+    *call = 1;
+  }
 }
 
 }  // namespace
@@ -591,14 +589,8 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
     return x;
   };
   // Each star tet's place in the star, by tet slot (valid where star_stamp_ is this call's).
-  if (star_stamp_.size() < static_cast<std::size_t>(mesh_->tetSlots())) {
-    star_stamp_.resize(mesh_->tetSlots(), 0);
-    star_place_.resize(mesh_->tetSlots(), 0);
-  }
-  if (++star_call_ == 0) {
-    std::fill(star_stamp_.begin(), star_stamp_.end(), 0);
-    star_call_ = 1;
-  }
+  nextStamp(&star_stamp_, &star_call_, mesh_->tetSlots());
+  if (star_place_.size() < star_stamp_.size()) star_place_.resize(star_stamp_.size(), 0);
   for (int i = 0; i < n; ++i) {
     star_stamp_[star[i]] = star_call_;
     star_place_[star[i]] = i;
@@ -641,12 +633,9 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   if (corner_group_.size() < static_cast<std::size_t>(mesh_->tetSlots())) {
     corner_group_.resize(mesh_->tetSlots(), {-1, -1, -1, -1});
     open_face_.resize(mesh_->tetSlots(), 0);
-    region_stamp_.resize(mesh_->tetSlots(), 0);
   }
-  if (split_state_.size() < static_cast<std::size_t>(mesh_->vertexSlots())) {
+  if (split_state_.size() < static_cast<std::size_t>(mesh_->vertexSlots()))
     split_state_.resize(mesh_->vertexSlots(), 0);
-    check_stamp_.resize(mesh_->vertexSlots(), 0);
-  }
   constexpr unsigned char kSplits = 1, kHeld = 2;  // split_state_: a candidate, held back
   std::vector<int> splitting, stars;
   for (int v : verts) {
@@ -671,12 +660,6 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
     std::sort(result.begin(), result.end());
     return result;
   };
-  auto nextCall = [](std::vector<unsigned>* stamps, unsigned* call) {
-    if (++*call == 0) {
-      std::fill(stamps->begin(), stamps->end(), 0);
-      *call = 1;
-    }
-  };
   using Key = std::int64_t;  // a vertex and the group of it a tet will use (-1: not split)
   auto keyOf = [&](int t, int corner) {
     return (static_cast<Key>(mesh_->tet(t)[corner]) << 20) |
@@ -688,7 +671,7 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   };
   std::vector<FanEdge> fan;
   for (int round = 0; round < 32; ++round) {
-    nextCall(&region_stamp_, &region_call_);
+    nextStamp(&region_stamp_, &region_call_, mesh_->tetSlots());
     region.clear();
     for (int v : splitting)
       if (split_state_[v] == kSplits)
@@ -700,7 +683,7 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
     if (region.empty()) return done(true);
     // Faces that open: shared by two tets of which one names a vertex of it differently (after
     // the split) from the other. Flagged on both sides; their vertices' boundaries change.
-    nextCall(&check_stamp_, &check_call_);
+    nextStamp(&check_stamp_, &check_call_, mesh_->vertexSlots());
     opened.clear();
     check.clear();
     for (int t : region) {
@@ -803,12 +786,7 @@ void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, Chan
   // end of a stroke every waiting vertex is tried. On a blade trembling inside its own wound
   // thousands wait, and trying them all on every tick made ticks of a hundred milliseconds.
   noteChanged(*change);
-  if (ring_stamp_.size() < static_cast<std::size_t>(mesh_->vertexSlots()))
-    ring_stamp_.resize(mesh_->vertexSlots(), 0);
-  if (++ring_call_ == 0) {
-    std::fill(ring_stamp_.begin(), ring_stamp_.end(), 0);
-    ring_call_ = 1;
-  }
+  nextStamp(&ring_stamp_, &ring_call_, mesh_->vertexSlots());
   std::vector<int> ring;
   for (int v : changed_near_)
     if (mesh_->vertexAlive(v) && ring_stamp_[v] != ring_call_) {
@@ -1030,12 +1008,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   };
   // Each vertex once, in the order of the tets (a second look would decide the same); one
   // farther than both bands from both planes is near neither triangle (trySnap would do nothing).
-  if (vertex_seen_.size() < static_cast<std::size_t>(mesh_->vertexSlots()))
-    vertex_seen_.resize(mesh_->vertexSlots(), 0);
-  if (++seen_stamp_ == 0) {
-    std::fill(vertex_seen_.begin(), vertex_seen_.end(), 0);
-    seen_stamp_ = 1;
-  }
+  nextStamp(&vertex_seen_, &seen_stamp_, mesh_->vertexSlots());
   const double band = std::max(snap_distance_, wound_snap_distance_);
   for (const TetVerts& tv : corners)
     for (int v : tv) {

@@ -13,21 +13,10 @@ namespace {
 
 using FaceKey = std::array<int, 3>;
 
-FaceKey sortedFace(int a, int b, int c) {
-  FaceKey k{a, b, c};
-  std::sort(k.begin(), k.end());
-  return k;
-}
-
 bool contains(const TetVerts& t, int v) {
   return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v);
 }
 
-int localIndex(const TetVerts& t, int v) {
-  for (int i = 0; i < 4; ++i)
-    if (t[i] == v) return i;
-  return -1;
-}
 
 // Local face of tet t made of vertices {a, b, c}: the one opposite the fourth vertex.
 int localFace(const TetVerts& t, int a, int b, int c) {

@@ -41,10 +41,6 @@ std::size_t commonCount(const std::vector<T>& x, const std::vector<T>& y) {
   return n;
 }
 
-int localIndex(const TetVerts& tv, int v) {
-  return static_cast<int>(std::find(tv.begin(), tv.end(), v) - tv.begin());
-}
-
 Edge sorted(int x, int y) { return x < y ? Edge{x, y} : Edge{y, x}; }
 
 Triangle sorted(int x, int y, int z) {
@@ -158,7 +154,7 @@ bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
   s.star.clear();
   if (live)
     for (int t : mesh.vertexTets(a))
-      if (localIndex(mesh.tet(t), b) < 4) s.star.push_back(t);
+      if (localIndex(mesh.tet(t), b) >= 0) s.star.push_back(t);
   if (s.star.empty())
     throw std::invalid_argument("linkConditionHolds: (" + std::to_string(a) + ", " +
                                 std::to_string(b) + ") is not an edge of the mesh");

@@ -13,10 +13,6 @@ namespace {
 
 constexpr double kSameNormal = 1e-9;  // 1 - cos of the largest angle between "parallel" faces
 
-int localIndex(const TetVerts& tv, int v) {
-  return static_cast<int>(std::find(tv.begin(), tv.end(), v) - tv.begin());
-}
-
 // The tet of `star` with v at `p` (rest positions).
 std::array<Vec3, 4> restCorners(const TetMesh& mesh, int t, int v, const Vec3& p) {
   const TetVerts& tv = mesh.tet(t);
@@ -32,16 +28,12 @@ std::array<Vec3, 4> restCorners(const TetMesh& mesh, int t, int v, const Vec3& p
 // equals).
 double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const Vec3& p,
                  double floor, int first, int* worst_at) {
-  double worst = 1.0;
-  double lowest = 2.0;  // the lowest Q seen, at star[*worst_at]
+  double worst = 1.0;  // Q is at most 1: after the first look, the lowest Q seen
   auto look = [&](int i) {
     const auto c = restCorners(mesh, star[i], v, p);
     if (!isSoundTet(c[0], c[1], c[2], c[3])) return worst = -1.0;
     const double q = tetQuality(c[0], c[1], c[2], c[3]);
-    if (q < lowest || (q == lowest && i < *worst_at)) {
-      lowest = q;
-      *worst_at = i;
-    }
+    if (q < worst || (q == worst && i < *worst_at)) *worst_at = i;
     return worst = std::min(worst, q);
   };
   if (look(first) <= floor) return worst;
@@ -115,14 +107,13 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
   SmoothingCheck out;
   const std::vector<int> star = mesh->vertexTets(v);
   // The star's qualities where v is: the worst, and the first tet that has it.
-  out.worst_before = 1.0;
+  double lowest = 2.0;
   int worst_at = 0;
-  double worst_q = 2.0;
   for (int i = 0; i < static_cast<int>(star.size()); ++i) {
     const double q = restQuality(*mesh, star[i]);
-    out.worst_before = std::min(out.worst_before, q);
-    if (q < worst_q) worst_q = q, worst_at = i;
+    if (q < lowest) lowest = q, worst_at = i;
   }
+  out.worst_before = std::min(1.0, lowest);
   out.worst_after = out.worst_before;
   Vec3 dir = Vec3::Zero();
   out.freedom = vertexFreedom(*mesh, v, &dir);
