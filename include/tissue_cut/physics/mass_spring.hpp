@@ -100,6 +100,18 @@ class MassSpring {
   void finishProduct(int v, const Vec3& p);
   /// The springs' part of the implicit step's set-up (see stepImplicit()).
   void assembleSprings(int part, double dt);
+  /// A batch of springs, one array per coordinate: what assembleSprings() gathers from the mesh
+  /// for springTerms(), and what that makes of it.
+  struct SpringBatch {
+    static constexpr int kSize = 32;
+    alignas(64) double dx[kSize], dy[kSize], dz[kSize];  // x_b - x_a
+    alignas(64) double ux[kSize], uy[kSize], uz[kSize];  // u_b - u_a
+    alignas(64) double wx[kSize], wy[kSize], wz[kSize];  // w_a - w_b, then K (w_a - w_b)
+    alignas(64) double stiffness[kSize], rest[kSize];
+    alignas(64) double kxx[kSize], kxy[kSize], kxz[kSize], kyy[kSize], kyz[kSize], kzz[kSize];
+    alignas(64) double fx[kSize], fy[kSize], fz[kSize];  // f + K (u_b - u_a) / h
+  };
+  static void springTerms(SpringBatch* s, double h2, double inv_dt);
   /// The parts' shares of sum k of the last parallel loop, added in part order.
   double partialSum(int k) const;
   bool stepImplicit(double dt);
