@@ -438,12 +438,17 @@ bool MassSpring::stepImplicit(double dt) {
   // p = z.
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
+    const Vec3 gravity = params_.gravity;
+    const double damping = params_.damping, mass_damping = mass_damping_;
+    const Vec3* velocity = mesh_->velocities().data();
+    const double* mass = mass_.data();
+    const double* inertia = inertia_.data();
+    const unsigned char* held = held_.data();
     double weight2 = 0.0, b_norm = 0.0, rz = 0.0, rr = 0.0;
     for (int v = begin; v < end; ++v) {
       const bool alive = mesh_->vertexAlive(v);
-      Vec3 b = alive ? Vec3(mass_[v] * (params_.gravity - params_.damping * mesh_->velocity(v)))
-                     : Vec3::Zero();
-      const double md = mass_damping_ * inertia_[v];
+      Vec3 b = alive ? Vec3(mass[v] * (gravity - damping * velocity[v])) : Vec3::Zero();
+      const double md = mass_damping * inertia[v];
       Block diag{md, 0.0, 0.0, md, 0.0, md};
       Vec3 a = md * dv_[v];
       for (int q = 0; q < parts; ++q) {
@@ -451,17 +456,20 @@ bool MassSpring::stepImplicit(double dt) {
         a += start_acc_[q][v];
         addTo(&diag, diag_acc_[q][v]);
       }
-      b_[v] = held_[v] ? Vec3::Zero() : Vec3(dt * b);
+      const Vec3 bv = held[v] ? Vec3::Zero() : Vec3(dt * b);
       // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
-      if (held_[v] || !invert(&diag)) diag = {0, 0, 0, 0, 0, 0};
+      if (held[v] || !invert(&diag)) diag = {0, 0, 0, 0, 0, 0};
+      const Vec3 rv = held[v] ? Vec3::Zero() : Vec3(bv - a);
+      const Vec3 zv = apply(diag, rv);
+      b_[v] = bv;
       inv_diag_[v] = diag;
-      r_[v] = held_[v] ? Vec3::Zero() : Vec3(b_[v] - a);
-      z_[v] = apply(inv_diag_[v], r_[v]);
-      p_[v] = z_[v];
-      if (!held_[v]) weight2 += (mass_[v] * dt) * (mass_[v] * dt);
-      b_norm += b_[v].squaredNorm();
-      rz += r_[v].dot(z_[v]);
-      rr += r_[v].squaredNorm();
+      r_[v] = rv;
+      z_[v] = zv;
+      p_[v] = zv;
+      if (!held[v]) weight2 += (mass[v] * dt) * (mass[v] * dt);
+      b_norm += bv.squaredNorm();
+      rz += rv.dot(zv);
+      rr += rv.squaredNorm();
     }
     partial_[part].sum[0] = weight2;
     partial_[part].sum[1] = b_norm;
@@ -481,27 +489,39 @@ bool MassSpring::stepImplicit(double dt) {
   for (; it < params_.cg_max_iterations; ++it) {
     if (rr <= tolerance2) break;
     parallel([&](int part) { springProducts(part, p_.data()); });
+    // (The vertex loops work through local pointers and copies of the scalars: through the
+    // members and the captured references the compiler reloaded them after every store.)
     parallel([&](int part) {
       const auto [begin, end] = rangeOf(n, part);
+      const Vec3* p = p_.data();
+      const Vec3* ap = ap_.data();
       double pap = 0.0;
       for (int v = begin; v < end; ++v) {
-        finishProduct(v, p_[v]);
-        pap += p_[v].dot(ap_[v]);
+        finishProduct(v, p[v]);
+        pap += p[v].dot(ap[v]);
       }
       partial_[part].sum[0] = pap;
     });
     const double pap = partialSum(0);
     if (!(pap > 0)) break;
     const double alpha = rz / pap;
-    parallel([&](int part) {
+    parallel([&, alpha](int part) {
       const auto [begin, end] = rangeOf(n, part);
+      Vec3* dv = dv_.data();
+      Vec3* r = r_.data();
+      Vec3* z = z_.data();
+      const Vec3* p = p_.data();
+      const Vec3* ap = ap_.data();
+      const Block* inv_diag = inv_diag_.data();
       double rz_next = 0.0, rr_next = 0.0;
       for (int v = begin; v < end; ++v) {
-        dv_[v] += alpha * p_[v];
-        r_[v] -= alpha * ap_[v];
-        z_[v] = apply(inv_diag_[v], r_[v]);
-        rz_next += r_[v].dot(z_[v]);
-        rr_next += r_[v].squaredNorm();
+        dv[v] += alpha * p[v];
+        const Vec3 rv = r[v] - alpha * ap[v];
+        const Vec3 zv = apply(inv_diag[v], rv);
+        r[v] = rv;
+        z[v] = zv;
+        rz_next += rv.dot(zv);
+        rr_next += rv.squaredNorm();
       }
       partial_[part].sum[0] = rz_next;
       partial_[part].sum[1] = rr_next;
@@ -510,9 +530,11 @@ bool MassSpring::stepImplicit(double dt) {
     rr = partialSum(1);
     const double beta = rz_next / rz;
     rz = rz_next;
-    parallel([&](int part) {
+    parallel([&, beta](int part) {
       const auto [begin, end] = rangeOf(n, part);
-      for (int v = begin; v < end; ++v) p_[v] = z_[v] + beta * p_[v];
+      Vec3* p = p_.data();
+      const Vec3* z = z_.data();
+      for (int v = begin; v < end; ++v) p[v] = z[v] + beta * p[v];
     });
   }
   last_iterations_ = it;
