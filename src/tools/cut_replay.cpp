@@ -52,12 +52,15 @@ Replays a scalpel path over a tissue mesh, offline, with the node's own Tissue::
   --check              run TetMesh::validate() after every tick; stop at the first violation
   --out FILE           write the final mesh (.vtk .node .msh)
   --stats FILE.json    write the statistics as JSON
+  --tick-log FILE.csv  write one row a tick: its wall and CPU time and what it spent them on
+                       (cutter, collapse queue, physics [ms]), CG iterations, tets cut, edges
+                       collapsed
   --quiet              print nothing but errors
 exit status: 0 done, 1 bad usage, 2 unusable input (mesh, config, path, output), 3 --check failed
 )";
 
 struct Options {
-  std::string mesh, config, path, out, stats, bag, topic;
+  std::string mesh, config, path, out, stats, bag, topic, tick_log;
   std::optional<double> blade_length, rate, tau;
   double settle = 0.0;
   bool no_physics = false, no_collapse = false, check = false, quiet = false;
@@ -104,6 +107,8 @@ std::string parseArgs(int argc, char** argv, Options* o) {
       err = value(&o->out);
     } else if (a == "--stats") {
       err = value(&o->stats);
+    } else if (a == "--tick-log") {
+      err = value(&o->tick_log);
     } else if (a == "--blade-length") {
       err = number(&o->blade_length);
     } else if (a == "--rate") {
@@ -203,6 +208,23 @@ int main(int argc, char** argv) {
     std::cerr << "cut_replay: " << e.what() << "\n";
     return kExitInput;
   }
+  // Opened before the replay, so that an unwritable name costs nothing; the rows are kept in
+  // memory and written after it, so that the file does not share the ticks' time.
+  std::ofstream tick_log;
+  if (!opt.tick_log.empty()) {
+    tick_log.open(opt.tick_log);
+    if (!tick_log) {
+      std::cerr << "cut_replay: " << opt.tick_log << ": cannot write the tick log\n";
+      return kExitInput;
+    }
+  }
+  struct TickRow {
+    long long k;
+    double wall_ms, cpu_ms, cut_ms, collapse_ms, physics_ms;
+    long long cg_iterations;
+    int cut_tets, collapses;
+  };
+  std::vector<TickRow> rows;
   if (opt.check) {
     const std::string err = tissue->validate();
     if (!err.empty()) {
@@ -225,12 +247,27 @@ int main(int argc, char** argv) {
   // `settle` seconds more, blade away) work off what the collapse queue still holds: a path that
   // ends inside the tissue leaves the tets around the blade busy until it is lifted.
   auto tick = [&](long long k, const std::optional<BladeSegment>& blade) {
+    // What the parts have spent so far (their counters only add up), for the tick log.
+    const CutCounts cut0 = tissue->cutter().counts();
+    const CollapseCounts collapse0 = tissue->collapse().counts();
+    const double physics0 = tissue->physics().timeMs();
+    const long long cg0 = tissue->physics().totalIterations();
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start = threadCpuMs();
     const std::string warning = tissue->step(blade, dt);
     const double cpu_ms = threadCpuMs() - cpu_start;
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (tick_log.is_open()) {
+      const CutCounts& cut = tissue->cutter().counts();
+      const CollapseCounts& collapse = tissue->collapse().counts();
+      rows.push_back({k, ms, cpu_ms, cut.time_ms - cut0.time_ms,
+                      collapse.time_ms - collapse0.time_ms,
+                      tissue->physics().timeMs() - physics0,
+                      tissue->physics().totalIterations() - cg0,
+                      cut.cut_tetrahedra - cut0.cut_tetrahedra,
+                      collapse.collapsed_edges - collapse0.collapsed_edges});
+    }
     if (!warning.empty() && !opt.quiet)
       std::cerr << "cut_replay: tick " << k << ": " << warning << "\n";
     tissue->tickTimes().record(ms, deadline_ms);
@@ -271,6 +308,19 @@ int main(int argc, char** argv) {
   stats.ticks.cpu_total_ms = cpu_total_ms;
   stats.ticks.real_time_factor = wall_s > 0 ? cpu_times.count() * dt / wall_s : 0.0;
   try {
+    if (tick_log.is_open()) {
+      tick_log << "tick,t,wall_ms,cpu_ms,cut_ms,collapse_ms,physics_ms,cg_iterations,cut_tets,"
+                  "collapses\n";
+      char line[256];
+      for (const TickRow& r : rows) {
+        std::snprintf(line, sizeof(line), "%lld,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%lld,%d,%d\n", r.k,
+                      t0 + r.k * dt, r.wall_ms, r.cpu_ms, r.cut_ms, r.collapse_ms, r.physics_ms,
+                      r.cg_iterations, r.cut_tets, r.collapses);
+        tick_log << line;
+      }
+      tick_log.close();
+      if (!tick_log) throw std::runtime_error(opt.tick_log + ": writing the tick log failed");
+    }
     if (!opt.out.empty()) writeMesh(opt.out, tissue->exportMesh());
     if (!opt.stats.empty()) {
       std::ofstream f(opt.stats);

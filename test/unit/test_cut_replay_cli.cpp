@@ -2,7 +2,9 @@
 // and a clear error with a non-zero exit for every kind of bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -100,6 +102,7 @@ TEST(CutReplayCli, RefusesBadInputWithAClearMessage) {
       {"--path /nonexistent/cut.csv", 2, "cut.csv"},
       {"--out /nonexistent/dir/out.vtk", 2, "out.vtk"},
       {"--out " + testing::TempDir() + "out.obj", 2, "out.obj"},
+      {"--tick-log /nonexistent/dir/ticks.csv", 2, "ticks.csv"},
   };
   for (const BadInput& c : cases) {
     const Outcome r = replay(c.args);
@@ -148,4 +151,59 @@ TEST(CutReplayCli, StatisticsFileHasEveryKey) {
     EXPECT_TRUE(s["collapse"]["rejected"].contains(key)) << key;
   for (const char* key : {"count", "rate_hz", "p50_ms", "p99_ms", "max_ms", "deadline_misses"})
     EXPECT_TRUE(s["ticks"].contains(key)) << key;
+}
+
+// The tick log: one row a tick, whose columns add up to the statistics' totals, and each tick's
+// parts within its own time.
+TEST(CutReplayCli, TickLogHasARowATickThatAddsUpToTheStatistics) {
+  const std::string stats = testing::TempDir() + "log.json";
+  const std::string log = testing::TempDir() + "ticks.csv";
+  const std::string path = kSource + "/meshes/paths/incision_block.csv";
+  const Outcome r =
+      replay("--quiet --rate 250 --path " + path + " --stats " + stats + " --tick-log " + log);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream sf(stats);
+  const auto s = nlohmann::json::parse(sf);
+  std::ifstream in(log);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_EQ(line,
+            "tick,t,wall_ms,cpu_ms,cut_ms,collapse_ms,physics_ms,cg_iterations,cut_tets,collapses");
+  long long count = 0, cg = 0, cut_tets = 0, collapses = 0;
+  double cut_ms = 0, collapse_ms = 0, physics_ms = 0, max_wall = 0;
+  while (std::getline(in, line)) {
+    long long tick, iterations;
+    double t, wall, cpu, cut, collapse, physics;
+    int tets, edges;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lld,%d,%d", &tick, &t, &wall,
+                          &cpu, &cut, &collapse, &physics, &iterations, &tets, &edges),
+              10)
+        << line;
+    ++count;
+    EXPECT_EQ(tick, count) << line;
+    EXPECT_NEAR(t, tick / 250.0, 1e-9) << line;
+    EXPECT_GE(cut, 0.0) << line;
+    EXPECT_GE(collapse, 0.0) << line;
+    EXPECT_GE(physics, 0.0) << line;
+    EXPECT_LE(cut + collapse + physics, wall + 1e-5) << line;  // the parts are inside the tick
+    cg += iterations;
+    cut_tets += tets;
+    collapses += edges;
+    cut_ms += cut;
+    collapse_ms += collapse;
+    physics_ms += physics;
+    max_wall = std::max(max_wall, wall);
+  }
+  EXPECT_EQ(count, s["ticks"]["count"].get<long long>());
+  EXPECT_EQ(count, 501);  // 2 s at 250 Hz, then the lift
+  EXPECT_GT(cut_tets, 0);
+  EXPECT_EQ(cut_tets, s["cut"]["cut_tetrahedra"].get<long long>());
+  EXPECT_GT(collapses, 0);
+  EXPECT_EQ(collapses, s["collapse"]["collapsed_edges"].get<long long>());
+  EXPECT_EQ(cg, std::llround(s["physics"]["cg_iterations_mean"].get<double>() *
+                             s["physics"]["steps"].get<double>()));
+  EXPECT_NEAR(cut_ms, s["cut"]["time_ms"].get<double>(), 1e-3);
+  EXPECT_NEAR(collapse_ms, s["collapse"]["time_ms"].get<double>(), 1e-3);
+  EXPECT_NEAR(physics_ms, s["physics"]["time_ms"].get<double>(), 1e-3);
+  EXPECT_NEAR(max_wall, s["ticks"]["max_ms"].get<double>(), 1e-5);
 }
