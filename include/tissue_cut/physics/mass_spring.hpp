@@ -94,10 +94,9 @@ class MassSpring {
   /// The part'th of numThreads() nearly equal ranges of [0, count).
   std::pair<int, int> rangeOf(int count, int part) const;
   /// A p with A = (1 + h alpha) M + h^2 K, in two steps: springProducts() for every part (its
-  /// springs' terms into its own buffer, acc_[part]), then finishProduct() for every vertex (the
-  /// mass term and the parts' sums into ap_, held rows zero).
+  /// springs' terms into its own buffer, acc_[part]), then a loop over the vertices in
+  /// stepImplicit() (the mass term and the parts' sums into ap_, held rows zero).
   void springProducts(int part, const Vec3* p);
-  void finishProduct(int v, const Vec3& p);
   /// The springs' part of the implicit step's set-up (see stepImplicit()).
   void assembleSprings(int part, double dt);
   /// A batch of springs, one array per coordinate: what assembleSprings() gathers from the mesh

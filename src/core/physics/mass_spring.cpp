@@ -280,14 +280,6 @@ void MassSpring::springProducts(int part, const Vec3* pv) {
   if (run >= 0) out[run] += sum;
 }
 
-void MassSpring::finishProduct(int v, const Vec3& p) {
-  // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), the springs' terms summed part by
-  // part. Held rows (fixed vertices) are zero; dead vertices have no mass and no springs.
-  Vec3 sum = (mass_damping_ * inertia_[v]) * p;
-  for (const std::vector<Vec3>& e : acc_) sum += e[v];
-  ap_[v] = held_[v] ? Vec3::Zero() : sum;
-}
-
 void MassSpring::assembleSprings(int part, double dt) {
   // A part's springs: their forces, their stiffness blocks (kept scaled by h^2 for the CG
   // products), and their terms of the right-hand side, of the diagonal blocks and of A dv for
@@ -494,11 +486,20 @@ bool MassSpring::stepImplicit(double dt) {
     parallel([&](int part) {
       const auto [begin, end] = rangeOf(n, part);
       const Vec3* p = p_.data();
-      const Vec3* ap = ap_.data();
+      Vec3* ap = ap_.data();
+      const double* inertia = inertia_.data();
+      const unsigned char* held = held_.data();
+      const double mass_damping = mass_damping_;
       double pap = 0.0;
       for (int v = begin; v < end; ++v) {
-        finishProduct(v, p[v]);
-        pap += p[v].dot(ap[v]);
+        // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), the springs' terms summed
+        // part by part. Held rows (fixed vertices) are zero; dead vertices have no mass and no
+        // springs.
+        Vec3 sum = (mass_damping * inertia[v]) * p[v];
+        for (int q = 0; q < parts; ++q) sum += acc_[q][v];
+        const Vec3 apv = held[v] ? Vec3::Zero() : sum;
+        ap[v] = apv;
+        pap += p[v].dot(apv);
       }
       partial_[part].sum[0] = pap;
     });
