@@ -57,6 +57,9 @@ class TetGrid {
   void insert(const TetMesh& mesh, int t);
   /// Takes tet t's latest entries out of their cells.
   void remove(int t);
+  /// remove(t) then insert(mesh, t), with the entries of the cells in both ranges overwritten
+  /// in place.
+  void refile(const TetMesh& mesh, int t);
   /// Live tets filed in the cells around [lo, hi] whose filed box may have drifted into it, in id
   /// order; with `current`, only those whose current box meets [lo, hi].
   void filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool current,
@@ -84,6 +87,8 @@ class TetGrid {
     std::array<int, 3> first{-1, -1, -1}, last{-1, -1, -1};
   };
   std::vector<Filed> filed_;
+  /// Tet t's entry (its current box, rounded outward to floats) and the cells it spans.
+  Entry entryOf(const TetMesh& mesh, int t, Filed* cells) const;
   // How far a vertex may be from where it was filed, as far as refresh() knows: the farthest at
   // the last scan, plus the moves since.
   double drift_bound_ = 0.0;

@@ -37,7 +37,7 @@ std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
   return c;
 }
 
-void TetGrid::insert(const TetMesh& mesh, int t) {
+TetGrid::Entry TetGrid::entryOf(const TetMesh& mesh, int t, Filed* cells) const {
   Vec3 lo, hi;
   tetBox(mesh, t, &lo, &hi);
   Entry e;
@@ -46,10 +46,17 @@ void TetGrid::insert(const TetMesh& mesh, int t) {
     e.lo[d] = std::nextafter(static_cast<float>(lo[d]), -HUGE_VALF);
     e.hi[d] = std::nextafter(static_cast<float>(hi[d]), HUGE_VALF);
   }
-  const auto [i0, j0, k0] = cellOf(lo);
-  const auto [i1, j1, k1] = cellOf(hi);
+  *cells = {cellOf(lo), cellOf(hi)};
+  return e;
+}
+
+void TetGrid::insert(const TetMesh& mesh, int t) {
+  Filed f;
+  const Entry e = entryOf(mesh, t, &f);
+  const auto [i0, j0, k0] = f.first;
+  const auto [i1, j1, k1] = f.last;
   if (t >= static_cast<int>(filed_.size())) filed_.resize(t + 1);
-  filed_[t] = {{i0, j0, k0}, {i1, j1, k1}};
+  filed_[t] = f;
   for (int k = k0; k <= k1; ++k)
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) {
@@ -77,6 +84,55 @@ void TetGrid::remove(int t) {
       }
 }
 
+void TetGrid::refile(const TetMesh& mesh, int t) {
+  if (t >= static_cast<int>(filed_.size()) || filed_[t].first[0] < 0) {
+    insert(mesh, t);
+    return;
+  }
+  // As remove() then insert(), in one pass: in a cell of both the old and the new range the
+  // entry is overwritten where it is (the tissue's drift seldom moves a tet to other cells, and
+  // finding the entry is most of the cost), the old range's other cells lose it, the new
+  // range's other cells get it.
+  const Filed old = filed_[t];
+  Filed now;
+  const Entry e = entryOf(mesh, t, &now);
+  filed_[t] = now;
+  auto within = [](const Filed& f, int i, int j, int k) {
+    return i >= f.first[0] && i <= f.last[0] && j >= f.first[1] && j <= f.last[1] &&
+           k >= f.first[2] && k <= f.last[2];
+  };
+  auto cellAt = [this](int i, int j, int k) -> std::vector<Entry>& {
+    return cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)];
+  };
+  for (int k = old.first[2]; k <= old.last[2]; ++k)
+    for (int j = old.first[1]; j <= old.last[1]; ++j)
+      for (int i = old.first[0]; i <= old.last[0]; ++i) {
+        auto& cell = cellAt(i, j, k);
+        // As in remove(): a dead tet's entry of the same id may be the one found.
+        const auto it =
+            std::find_if(cell.begin(), cell.end(), [t](const Entry& x) { return x.tet == t; });
+        if (within(now, i, j, k)) {
+          if (it != cell.end()) {
+            *it = e;
+          } else {
+            cell.push_back(e);
+            ++entries_;
+          }
+        } else if (it != cell.end()) {
+          *it = cell.back();
+          cell.pop_back();
+          --entries_;
+        }
+      }
+  for (int k = now.first[2]; k <= now.last[2]; ++k)
+    for (int j = now.first[1]; j <= now.last[1]; ++j)
+      for (int i = now.first[0]; i <= now.last[0]; ++i)
+        if (!within(old, i, j, k)) {
+          cellAt(i, j, k).push_back(e);
+          ++entries_;
+        }
+}
+
 void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refiled) {
   if (cells_.empty()) return;
   drift_bound_ += moved >= 0.0 ? moved : HUGE_VAL;  // not known (or NaN): anything may have moved
@@ -100,10 +156,7 @@ void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refil
   // Each tet once, however many of its vertices drifted (the tissue sags as a whole).
   std::sort(refiled->begin() + first, refiled->end());
   refiled->erase(std::unique(refiled->begin() + first, refiled->end()), refiled->end());
-  for (std::size_t i = first; i < refiled->size(); ++i) {
-    remove((*refiled)[i]);
-    insert(mesh, (*refiled)[i]);
-  }
+  for (std::size_t i = first; i < refiled->size(); ++i) refile(mesh, (*refiled)[i]);
 }
 
 void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
