@@ -55,10 +55,8 @@ class TetGrid {
   /// cells, which queries clamp to alike.
   std::array<int, 3> cellOf(const Vec3& x) const;
   void insert(const TetMesh& mesh, int t);
-  /// Takes tet t's latest entries out of their cells.
-  void remove(int t);
-  /// remove(t) then insert(mesh, t), with the entries of the cells in both ranges overwritten
-  /// in place.
+  /// Files tet t anew where it is now: its latest entries out of their cells, the new ones in
+  /// (overwritten in place in the cells of both).
   void refile(const TetMesh& mesh, int t);
   /// Live tets filed in the cells around [lo, hi] whose filed box may have drifted into it, in id
   /// order; with `current`, only those whose current box meets [lo, hi].

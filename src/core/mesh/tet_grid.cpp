@@ -65,34 +65,15 @@ void TetGrid::insert(const TetMesh& mesh, int t) {
       }
 }
 
-void TetGrid::remove(int t) {
-  if (t >= static_cast<int>(filed_.size()) || filed_[t].first[0] < 0) return;
-  const Filed f = filed_[t];
-  filed_[t] = Filed{};
-  for (int k = f.first[2]; k <= f.last[2]; ++k)
-    for (int j = f.first[1]; j <= f.last[1]; ++j)
-      for (int i = f.first[0]; i <= f.last[0]; ++i) {
-        auto& cell = cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)];
-        // A dead tet whose slot was reused may have left an entry of the same id: either one
-        // goes (queries sort and check what they find; only the count matters here).
-        const auto it =
-            std::find_if(cell.begin(), cell.end(), [t](const Entry& e) { return e.tet == t; });
-        if (it == cell.end()) continue;
-        *it = cell.back();
-        cell.pop_back();
-        --entries_;
-      }
-}
-
 void TetGrid::refile(const TetMesh& mesh, int t) {
   if (t >= static_cast<int>(filed_.size()) || filed_[t].first[0] < 0) {
     insert(mesh, t);
     return;
   }
-  // As remove() then insert(), in one pass: in a cell of both the old and the new range the
-  // entry is overwritten where it is (the tissue's drift seldom moves a tet to other cells, and
-  // finding the entry is most of the cost), the old range's other cells lose it, the new
-  // range's other cells get it.
+  // Its old entries out, its new ones in, in one pass: in a cell of both the old and the new
+  // range the entry is overwritten where it is (the tissue's drift seldom moves a tet to other
+  // cells, and finding the entry is most of the cost), the old range's other cells lose it, the
+  // new range's other cells get it.
   const Filed old = filed_[t];
   Filed now;
   const Entry e = entryOf(mesh, t, &now);
@@ -108,7 +89,8 @@ void TetGrid::refile(const TetMesh& mesh, int t) {
     for (int j = old.first[1]; j <= old.last[1]; ++j)
       for (int i = old.first[0]; i <= old.last[0]; ++i) {
         auto& cell = cellAt(i, j, k);
-        // As in remove(): a dead tet's entry of the same id may be the one found.
+        // A dead tet whose slot was reused may have left an entry of the same id: either one is
+        // taken (queries sort and check what they find; only the count matters here).
         const auto it =
             std::find_if(cell.begin(), cell.end(), [t](const Entry& x) { return x.tet == t; });
         if (within(now, i, j, k)) {
