@@ -396,7 +396,8 @@ bool MassSpring::stepImplicit(double dt) {
   // block-Jacobi preconditioned CG. Every loop runs in numThreads() parts: vertex loops over
   // ranges of vertices, spring loops over ranges of springs, each part summing into its own
   // buffer (the parts' buffers are added in a fixed order, so a step's result does not depend on
-  // timing).
+  // timing). The vertex loops work through local pointers and copies of the scalars: through the
+  // members and the captured references the compiler reloaded them after every store.
   const int n = mesh_->vertexSlots();
   const int parts = numThreads();
   mass_damping_ = 1.0 + dt * params_.damping;
@@ -485,8 +486,6 @@ bool MassSpring::stepImplicit(double dt) {
   for (; it < params_.cg_max_iterations; ++it) {
     if (rr <= tolerance2) break;
     parallel([&](int part) { springProducts(part, p_.data()); });
-    // (The vertex loops work through local pointers and copies of the scalars: through the
-    // members and the captured references the compiler reloaded them after every store.)
     parallel([&](int part) {
       const auto [begin, end] = rangeOf(n, part);
       const Vec3* p = p_.data();
