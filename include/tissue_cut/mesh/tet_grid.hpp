@@ -55,8 +55,8 @@ class TetGrid {
   /// cells, which queries clamp to alike.
   std::array<int, 3> cellOf(const Vec3& x) const;
   void insert(const TetMesh& mesh, int t);
-  /// Files tet t anew where it is now: its latest entries out of their cells, the new ones in
-  /// (overwritten in place in the cells of both).
+  /// Files tet t anew where it is now: its box rewritten, and where the cells it spans changed,
+  /// its entries out of the cells it left and into those it reached.
   void refile(const TetMesh& mesh, int t);
   /// Live tets filed in the cells around [lo, hi] whose filed box may have drifted into it, in id
   /// order; with `current`, only those whose current box meets [lo, hi].
@@ -71,13 +71,16 @@ class TetGrid {
   double cell_ = 1.0, margin_ = 0.0;
   Vec3 origin_ = Vec3::Zero();
   std::array<int, 3> dims_{0, 0, 0};
-  // A tet in a cell with its box as filed (floats, rounded outward): a query tests these first,
-  // contiguously, and reads the mesh only for tets that may overlap.
-  struct Entry {
-    int tet;
+  // A tet's box as filed (floats, rounded outward): a query tests it before it reads the mesh.
+  struct Box {
     float lo[3], hi[3];
   };
-  std::vector<std::vector<Entry>> cells_;  // x fastest
+  // The tet ids filed in each cell, x fastest. The boxes are per tet slot, not per entry, so that
+  // refiling a tet whose box still spans the same cells (most of the tissue's drift) writes its
+  // box and nothing else: no cell is searched. A dead tet's entries stay until a rebuild; a slot
+  // reused elsewhere leaves them pointing at the new tet's box, which a query tests like any.
+  std::vector<std::vector<int>> cells_;
+  std::vector<Box> boxes_;  // per tet slot
   std::size_t entries_ = 0, entries_at_build_ = 0;
   std::vector<Vec3> built_positions_;
   // Per tet slot, the cells its latest entries are in (first and last corner; -1: none).
@@ -85,13 +88,15 @@ class TetGrid {
     std::array<int, 3> first{-1, -1, -1}, last{-1, -1, -1};
   };
   std::vector<Filed> filed_;
-  /// Tet t's entry (its current box, rounded outward to floats) and the cells it spans.
-  Entry entryOf(const TetMesh& mesh, int t, Filed* cells) const;
+  /// Tet t's box now (rounded outward to floats) and the cells it spans.
+  Box boxOf(const TetMesh& mesh, int t, Filed* cells) const;
   // How far a vertex may be from where it was filed, as far as refresh() knows: the farthest at
   // the last scan, plus the moves since.
   double drift_bound_ = 0.0;
+  // Per tet slot, the stamp of the query or refresh that last took it: each tet once a call.
   mutable std::vector<unsigned> seen_;
   mutable unsigned stamp_ = 0;
+  void nextStamp(const TetMesh& mesh) const;
 };
 
 }  // namespace tissue_cut

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 namespace tissue_cut {
 
@@ -15,6 +17,22 @@ void tetBox(const TetMesh& mesh, int t, Vec3* lo, Vec3* hi) {
     *hi = hi->cwiseMax(mesh.current(v[i]));
   }
 }
+
+// The float next to f towards -infinity (down) or +infinity (up), as std::nextafter gives, without
+// the library call (six a tet filed); non-finite f goes to std::nextafter.
+float floatBelow(double x) {
+  const float f = static_cast<float>(x);
+  if (!std::isfinite(f)) return std::nextafter(f, -HUGE_VALF);
+  if (f == 0.0f) return -std::numeric_limits<float>::denorm_min();
+  std::uint32_t bits;
+  std::memcpy(&bits, &f, sizeof bits);
+  bits = f > 0.0f ? bits - 1 : bits + 1;
+  float g;
+  std::memcpy(&g, &bits, sizeof g);
+  return g;
+}
+
+float floatAbove(double x) { return -floatBelow(-x); }
 
 // At most this many cells per live tet: the cell grows when the mesh's box is sparse.
 constexpr double kMaxCellsPerTet = 4.0;
@@ -37,30 +55,41 @@ std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
   return c;
 }
 
-TetGrid::Entry TetGrid::entryOf(const TetMesh& mesh, int t, Filed* cells) const {
+TetGrid::Box TetGrid::boxOf(const TetMesh& mesh, int t, Filed* cells) const {
   Vec3 lo, hi;
   tetBox(mesh, t, &lo, &hi);
-  Entry e;
-  e.tet = t;
+  Box box;
   for (int d = 0; d < 3; ++d) {
-    e.lo[d] = std::nextafter(static_cast<float>(lo[d]), -HUGE_VALF);
-    e.hi[d] = std::nextafter(static_cast<float>(hi[d]), HUGE_VALF);
+    box.lo[d] = floatBelow(lo[d]);
+    box.hi[d] = floatAbove(hi[d]);
   }
   *cells = {cellOf(lo), cellOf(hi)};
-  return e;
+  return box;
+}
+
+void TetGrid::nextStamp(const TetMesh& mesh) const {
+  if (seen_.size() < static_cast<std::size_t>(mesh.tetSlots())) seen_.resize(mesh.tetSlots(), 0);
+  if (++stamp_ == 0) {
+    std::fill(seen_.begin(), seen_.end(), 0);
+    stamp_ = 1;
+  }
 }
 
 void TetGrid::insert(const TetMesh& mesh, int t) {
   Filed f;
-  const Entry e = entryOf(mesh, t, &f);
+  const Box box = boxOf(mesh, t, &f);
   const auto [i0, j0, k0] = f.first;
   const auto [i1, j1, k1] = f.last;
-  if (t >= static_cast<int>(filed_.size())) filed_.resize(t + 1);
+  if (t >= static_cast<int>(filed_.size())) {
+    filed_.resize(t + 1);
+    boxes_.resize(t + 1);
+  }
   filed_[t] = f;
+  boxes_[t] = box;
   for (int k = k0; k <= k1; ++k)
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) {
-        cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)].push_back(e);
+        cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)].push_back(t);
         ++entries_;
       }
 }
@@ -70,37 +99,30 @@ void TetGrid::refile(const TetMesh& mesh, int t) {
     insert(mesh, t);
     return;
   }
-  // Its old entries out, its new ones in, in one pass: in a cell of both the old and the new
-  // range the entry is overwritten where it is (the tissue's drift seldom moves a tet to other
-  // cells, and finding the entry is most of the cost), the old range's other cells lose it, the
-  // new range's other cells get it.
+  // Its new box; the cells of the old range not in the new one lose it, those of the new range
+  // not in the old one get it. The tissue's drift seldom moves a tet to other cells: then its box
+  // is all that changes.
   const Filed old = filed_[t];
   Filed now;
-  const Entry e = entryOf(mesh, t, &now);
+  boxes_[t] = boxOf(mesh, t, &now);
+  if (now.first == old.first && now.last == old.last) return;
   filed_[t] = now;
   auto within = [](const Filed& f, int i, int j, int k) {
     return i >= f.first[0] && i <= f.last[0] && j >= f.first[1] && j <= f.last[1] &&
            k >= f.first[2] && k <= f.last[2];
   };
-  auto cellAt = [this](int i, int j, int k) -> std::vector<Entry>& {
+  auto cellAt = [this](int i, int j, int k) -> std::vector<int>& {
     return cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)];
   };
   for (int k = old.first[2]; k <= old.last[2]; ++k)
     for (int j = old.first[1]; j <= old.last[1]; ++j)
       for (int i = old.first[0]; i <= old.last[0]; ++i) {
+        if (within(now, i, j, k)) continue;
         auto& cell = cellAt(i, j, k);
-        // A dead tet whose slot was reused may have left an entry of the same id: either one is
-        // taken (queries sort and check what they find; only the count matters here).
-        const auto it =
-            std::find_if(cell.begin(), cell.end(), [t](const Entry& x) { return x.tet == t; });
-        if (within(now, i, j, k)) {
-          if (it != cell.end()) {
-            *it = e;
-          } else {
-            cell.push_back(e);
-            ++entries_;
-          }
-        } else if (it != cell.end()) {
+        // A dead tet whose slot was reused may have left an entry of the same id: either one goes
+        // (both stand for the same slot's box; only the count matters here).
+        const auto it = std::find(cell.begin(), cell.end(), t);
+        if (it != cell.end()) {
           *it = cell.back();
           cell.pop_back();
           --entries_;
@@ -110,7 +132,7 @@ void TetGrid::refile(const TetMesh& mesh, int t) {
     for (int j = now.first[1]; j <= now.last[1]; ++j)
       for (int i = now.first[0]; i <= now.last[0]; ++i)
         if (!within(old, i, j, k)) {
-          cellAt(i, j, k).push_back(e);
+          cellAt(i, j, k).push_back(t);
           ++entries_;
         }
 }
@@ -123,6 +145,7 @@ void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refil
   const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
   const Vec3* now = mesh.currentPositions().data();
   const std::size_t first = refiled->size();
+  nextStamp(mesh);
   double farthest = 0.0;  // squared, of the vertices left where they are filed
   for (int v = 0; v < n; ++v) {
     const double d2 = (now[v] - built_positions_[v]).squaredNorm();
@@ -132,12 +155,15 @@ void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refil
     }
     // Every tet filed from now on sees v within half the margin of here.
     built_positions_[v] = now[v];
-    refiled->insert(refiled->end(), mesh.vertexTets(v).begin(), mesh.vertexTets(v).end());
+    // Each tet once, however many of its vertices drifted (the tissue sags as a whole).
+    for (const int t : mesh.vertexTets(v)) {
+      if (seen_[t] == stamp_) continue;
+      seen_[t] = stamp_;
+      refiled->push_back(t);
+    }
   }
   drift_bound_ = std::sqrt(farthest);
-  // Each tet once, however many of its vertices drifted (the tissue sags as a whole).
   std::sort(refiled->begin() + first, refiled->end());
-  refiled->erase(std::unique(refiled->begin() + first, refiled->end()), refiled->end());
   for (std::size_t i = first; i < refiled->size(); ++i) refile(mesh, (*refiled)[i]);
 }
 
@@ -168,6 +194,7 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
   cells_.resize(cells);
   entries_ = 0;
   filed_.assign(mesh.tetSlots(), Filed{});
+  boxes_.assign(mesh.tetSlots(), Box{});
   for (int t = 0; t < mesh.tetSlots(); ++t)
     if (mesh.tetAlive(t)) insert(mesh, t);
   entries_at_build_ = entries_;
@@ -206,11 +233,7 @@ void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool cu
                     std::vector<int>* out) const {
   out->clear();
   if (cells_.empty()) return;
-  if (seen_.size() < static_cast<std::size_t>(mesh.tetSlots())) seen_.resize(mesh.tetSlots(), 0);
-  if (++stamp_ == 0) {
-    std::fill(seen_.begin(), seen_.end(), 0);
-    stamp_ = 1;
-  }
+  nextStamp(mesh);
   const Vec3 margin = Vec3::Constant(margin_);
   const auto [i0, j0, k0] = cellOf(lo - margin);
   const auto [i1, j1, k1] = cellOf(hi + margin);
@@ -225,11 +248,11 @@ void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool cu
   for (int k = k0; k <= k1; ++k)
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i)
-        for (const Entry& e : cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)]) {
+        for (const int t : cells_[i + dims_[0] * (j + static_cast<std::size_t>(dims_[1]) * k)]) {
+          const Box& e = boxes_[t];
           if (e.lo[0] > qhi[0] || e.hi[0] < qlo[0] || e.lo[1] > qhi[1] || e.hi[1] < qlo[1] ||
               e.lo[2] > qhi[2] || e.hi[2] < qlo[2])
             continue;
-          const int t = e.tet;
           if (t >= mesh.tetSlots() || seen_[t] == stamp_ || !mesh.tetAlive(t)) continue;
           seen_[t] = stamp_;
           if (!current || tetBoxMeets(mesh, t, lo, hi)) out->push_back(t);
