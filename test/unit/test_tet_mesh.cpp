@@ -127,6 +127,36 @@ TEST(TetMesh, RefusedReplacementLeavesTheMeshUnchanged) {
   EXPECT_EQ(mesh.validate(), "");
 }
 
+// The checks before a replacement: a tet removed twice, a dead tet, a face the added tets would
+// share three ways among themselves; each refused with the mesh unchanged, and a removed tet's
+// faces count as free for the ones added (so the next call, after the refusals, goes through).
+TEST(TetMesh, ReplacementChecksRemovedTetsAndNewFaces) {
+  TetMesh mesh = twoTets();
+  const TetVerts t0 = mesh.tet(0), t1 = mesh.tet(1);
+  auto unchanged = [&] {
+    EXPECT_EQ(mesh.numTets(), 2);
+    EXPECT_EQ(mesh.tet(0), t0);
+    EXPECT_EQ(mesh.tet(1), t1);
+    EXPECT_EQ(mesh.neighbor(0, 0), 1);
+  };
+  EXPECT_THROW(mesh.replaceTets({1, 1}, {t1}, nullptr), std::logic_error);
+  unchanged();
+  EXPECT_THROW(mesh.replaceTets({2}, {}, nullptr), std::logic_error);
+  EXPECT_THROW(mesh.replaceTets({-1}, {}, nullptr), std::logic_error);
+  unchanged();
+  // Tet 1 out, two tets on face (1, 2, 3) beyond it: with tet 0 that face is shared three ways.
+  const int v = mesh.addVertex({{4, 0.5}, {0, -0.5}, {1, 1.0}}, nullptr);
+  EXPECT_THROW(mesh.replaceTets({1}, {t1, {v, 1, 3, 2}}, nullptr), std::logic_error);
+  unchanged();
+  // Tet 1 out and a tet on its face in: the face is tet 1's no more, so it may be taken.
+  ChangeRecord record;
+  const auto ids = mesh.replaceTets({1}, {{v, 1, 3, 2}}, &record);
+  ASSERT_EQ(ids.size(), 1u);
+  EXPECT_EQ(mesh.neighbor(0, 0), ids[0]);
+  mesh.removeVertex(4, nullptr);
+  EXPECT_EQ(mesh.validate(), "");
+}
+
 TEST(TetMesh, ReplacementRefusesAFlatTet) {
   // A split whose piece is flat (a point on an edge of its own base) must not reach the mesh:
   // validate() would call it invalid. Refused before anything changes.

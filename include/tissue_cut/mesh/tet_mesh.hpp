@@ -168,6 +168,10 @@ class TetMesh {
   std::vector<std::array<int, 4>> neighbors_;
   std::vector<unsigned char> tet_alive_;
   std::vector<int> free_tets_;
+  // replaceTets()'s scratch: per tet slot, the stamp of the call removing it; the new faces.
+  std::vector<unsigned> removing_;
+  unsigned removing_stamp_ = 0;
+  std::vector<std::array<int, 3>> face_scratch_;
   int num_vertices_ = 0, num_tets_ = 0, num_boundary_faces_ = 0, reoriented_ = 0;
 };
 

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <map>
-#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -345,14 +344,25 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
                                       const std::vector<int>* from) {
   if (from && from->size() != add.size())
     throw std::logic_error("TetMesh::replaceTets: `from` must be parallel to `add`");
-  // Check everything first, so a refused change leaves the mesh as it was.
-  std::set<int> removing(remove.begin(), remove.end());
-  if (removing.size() != remove.size())
-    throw std::logic_error("TetMesh::replaceTets: a tet is removed twice");
+  // Check everything first, so a refused change leaves the mesh as it was. The tets removed are
+  // marked with this call's stamp, the new faces sorted and counted (no set or hash map: a move
+  // of one vertex replaces its star through here).
+  if (removing_.size() < tets_.size()) removing_.resize(tets_.size(), 0);
+  if (++removing_stamp_ == 0) {
+    std::fill(removing_.begin(), removing_.end(), 0u);
+    removing_stamp_ = 1;
+  }
   for (int t : remove)
     if (t < 0 || t >= tetSlots() || !tet_alive_[t])
       throw std::logic_error("TetMesh::replaceTets: removing dead tet " + std::to_string(t));
-  std::unordered_map<FaceKey, int, FaceHash> new_faces;
+  for (int t : remove) {
+    if (removing_[t] == removing_stamp_)
+      throw std::logic_error("TetMesh::replaceTets: a tet is removed twice");
+    removing_[t] = removing_stamp_;
+  }
+  auto removed = [this](int t) { return removing_[t] == removing_stamp_; };
+  std::vector<FaceKey>& new_faces = face_scratch_;
+  new_faces.clear();
   for (const TetVerts& tv : add) {
     for (int i = 0; i < 4; ++i) {
       if (tv[i] < 0 || tv[i] >= vertexSlots() || !vertex_alive_[tv[i]])
@@ -365,12 +375,16 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
       throw std::logic_error("TetMesh::replaceTets: tet (" + std::to_string(tv[0]) + ", " +
                              std::to_string(tv[1]) + ", " + std::to_string(tv[2]) + ", " +
                              std::to_string(tv[3]) + ") has no positive rest volume");
-    for (const auto& f : kTetFace) ++new_faces[sortedFace(tv[f[0]], tv[f[1]], tv[f[2]])];
+    for (const auto& f : kTetFace) new_faces.push_back(sortedFace(tv[f[0]], tv[f[1]], tv[f[2]]));
   }
-  for (const auto& [key, count] : new_faces) {
+  std::sort(new_faces.begin(), new_faces.end());
+  for (std::size_t i = 0; i < new_faces.size();) {
+    const FaceKey key = new_faces[i];
+    int count = 0;
+    for (; i < new_faces.size() && new_faces[i] == key; ++i) ++count;
     int kept = 0;
     for (int t : vertex_tets_[key[0]])
-      if (!removing.count(t) && contains(tets_[t], key[1]) && contains(tets_[t], key[2])) ++kept;
+      if (!removed(t) && contains(tets_[t], key[1]) && contains(tets_[t], key[2])) ++kept;
     if (count + kept > 2)
       throw std::logic_error("TetMesh::replaceTets: face (" + std::to_string(key[0]) + ", " +
                              std::to_string(key[1]) + ", " + std::to_string(key[2]) +
