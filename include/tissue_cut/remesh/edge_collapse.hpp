@@ -13,7 +13,8 @@ struct CollapseCheck {
   CollapseRefusal refusal = CollapseRefusal::kNone;
   int removed = -1;   ///< the end that moves onto the other and dies
   int survivor = -1;  ///< the end that stays, keeping its rest and current positions
-  /// Worst rest Q over the star of `removed` (tets that vanish included) before the collapse.
+  /// Worst rest Q over the star of `removed` (tets that vanish included) before the collapse; 0
+  /// when refused before the quality test (any refusal but kQuality).
   double worst_before = 0.0;
   /// Worst rest Q over the tets of that star that live on with `survivor` in place of `removed`
   /// (1 when none does); 0 when refused before it was known (kBoundary, kLink, kInversion).

@@ -78,9 +78,6 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
   check.survivor = survivor;
 
   const std::vector<int>& star = mesh.vertexTets(check.removed);
-  check.worst_before = 1.0;
-  for (int t : star) check.worst_before = std::min(check.worst_before, restQuality(mesh, t));
-
   if (a_boundary && b_boundary && !isBoundaryEdge(mesh, a, b)) {
     check.refusal = CollapseRefusal::kBoundary;
     return check;
@@ -125,6 +122,10 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
     check.refusal = CollapseRefusal::kBoundary;
     return check;
   }
+  // The star's quality before is needed for this test only (most checks stop earlier, at an
+  // inversion).
+  check.worst_before = 1.0;
+  for (int t : star) check.worst_before = std::min(check.worst_before, restQuality(mesh, t));
   if (check.worst_after < check.worst_before) check.refusal = CollapseRefusal::kQuality;
   return check;
 }
