@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <random>
+#include <set>
 
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -101,6 +103,61 @@ TEST(TetMesh, MergingTheBisectionPointBackRestoresTheMesh) {
   ASSERT_EQ(record.merged_vertices.size(), 1u);
   EXPECT_EQ(record.merged_vertices[0], std::make_pair(m, a));
   EXPECT_FALSE(mesh.vertexAlive(m));
+}
+
+// ChangeRecord::append composes records into the net change, whether it scans its lists (a few
+// small records) or hashes them (many): what was added and removed again vanishes, what stays
+// removed was there at the start, every live tet is either added or there unchanged since the
+// start, and an added tet continues a removed tet of the start or is new.
+TEST(TetMesh, AppendedRecordsGiveTheNetChange) {
+  for (const int operations : {5, 90}) {
+    const MeshData b = makeBlock();
+    TetMesh mesh(b.V, b.T);
+    const int slots = mesh.tetSlots();
+    std::vector<TetVerts> start(slots);
+    for (int t = 0; t < slots; ++t) start[t] = mesh.tet(t);
+    std::mt19937 rng(operations);
+    ChangeRecord total;
+    int last_mid = -1, last_end = -1;
+    for (int k = 0; k < operations; ++k) {
+      ChangeRecord step;
+      if (k % 3 == 2) {
+        mesh.mergeVertices(last_mid, last_end, &step);  // the bisection just made, undone
+      } else {
+        const auto edges = mesh.edges();
+        const auto [a, c] = edges[rng() % edges.size()];
+        last_mid = bisectEdge(mesh, a, c, &step);
+        last_end = a;
+      }
+      total.append(step);
+    }
+    ASSERT_EQ(mesh.validate(), "");
+    const std::set<int> removed(total.removed_tets.begin(), total.removed_tets.end());
+    const std::set<int> added(total.added_tets.begin(), total.added_tets.end());
+    EXPECT_EQ(removed.size(), total.removed_tets.size()) << operations << ": each once";
+    EXPECT_EQ(added.size(), total.added_tets.size()) << operations << ": each once";
+    EXPECT_GT(removed.size(), 0u);
+    for (int t : removed) EXPECT_LT(t, slots) << "removed tet " << t << " was not there";
+    for (int t = 0; t < mesh.tetSlots(); ++t) {
+      const bool unchanged = t < slots && !removed.count(t);
+      if (!mesh.tetAlive(t)) {
+        EXPECT_FALSE(unchanged) << operations << ": tet " << t << " went unannounced";
+        EXPECT_FALSE(added.count(t)) << operations << ": dead tet " << t << " is added";
+        continue;
+      }
+      EXPECT_NE(unchanged, added.count(t) == 1) << operations << ": tet " << t;
+      if (unchanged) {
+        EXPECT_EQ(mesh.tet(t), start[t]) << operations << ": tet " << t;
+      }
+    }
+    ASSERT_EQ(total.added_from.size(), total.added_tets.size());
+    for (int from : total.added_from) {
+      if (from >= 0) {
+        EXPECT_TRUE(removed.count(from)) << operations << ": continues " << from;
+      }
+    }
+    for (int v : total.added_vertices) EXPECT_TRUE(mesh.vertexAlive(v)) << operations;
+  }
 }
 
 TEST(TetMesh, RemovedSlotsAreReusedAndAnnounced) {

@@ -68,35 +68,70 @@ bool ChangeRecord::empty() const {
 
 void ChangeRecord::append(const ChangeRecord& later) {
   // Compose into one net change: a tet or vertex added here and removed later never existed for
-  // the consumers, and a tet continuing one of those continues what that one continued.
+  // the consumers, and a tet continuing one of those continues what that one continued. Most
+  // records composed are small (one collapse, flip or move after another): then the lists are
+  // scanned; large ones go through hash maps.
+  constexpr std::size_t kScanLimit = 4096;
+  const std::size_t n_added = added_tets.size();
+  const bool scan_added = later.removed_tets.size() * n_added <= kScanLimit;
   std::unordered_map<int, std::size_t> added_at;
-  for (std::size_t i = 0; i < added_tets.size(); ++i) added_at[added_tets[i]] = i;
-  std::unordered_map<int, int> origin;  // later's removed slot -> what it continued
-  std::vector<char> cancelled(added_tets.size(), 0);
+  if (!scan_added)
+    for (std::size_t i = 0; i < n_added; ++i) added_at[added_tets[i]] = i;
+  // later's removed slots and what each continued, in later.removed_tets' order
+  std::vector<std::pair<int, int>> origin;
+  origin.reserve(later.removed_tets.size());
+  std::vector<char> cancelled;
   for (int t : later.removed_tets) {
-    auto it = added_at.find(t);
-    if (it != added_at.end() && !cancelled[it->second]) {
-      cancelled[it->second] = 1;
-      origin[t] = added_from[it->second];
-      added_at.erase(it);
+    std::size_t i = n_added;
+    if (scan_added) {
+      for (std::size_t k = n_added; k-- > 0;)
+        if (added_tets[k] == t) {
+          i = k;
+          break;
+        }
+    } else {
+      const auto it = added_at.find(t);
+      if (it != added_at.end()) {
+        i = it->second;
+        added_at.erase(it);
+      }
+    }
+    if (i < n_added && (cancelled.empty() || !cancelled[i])) {
+      if (cancelled.empty()) cancelled.assign(n_added, 0);
+      cancelled[i] = 1;
+      origin.emplace_back(t, added_from[i]);
     } else {
       removed_tets.push_back(t);
-      origin[t] = t;
+      origin.emplace_back(t, t);
     }
   }
-  std::vector<int> kept_tets, kept_from;
-  for (std::size_t i = 0; i < added_tets.size(); ++i)
-    if (!cancelled[i]) {
-      kept_tets.push_back(added_tets[i]);
-      kept_from.push_back(added_from[i]);
-    }
-  added_tets.swap(kept_tets);
-  added_from.swap(kept_from);
+  if (!cancelled.empty()) {
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < n_added; ++i)
+      if (!cancelled[i]) {
+        added_tets[kept] = added_tets[i];
+        added_from[kept] = added_from[i];
+        ++kept;
+      }
+    added_tets.resize(kept);
+    added_from.resize(kept);
+  }
+  const bool scan_origin = later.added_tets.size() * origin.size() <= kScanLimit;
+  std::unordered_map<int, int> origin_of;
+  if (!scan_origin) origin_of.insert(origin.begin(), origin.end());
   for (std::size_t i = 0; i < later.added_tets.size(); ++i) {
     int from = later.added_from[i];
     if (from >= 0) {
-      auto it = origin.find(from);
-      if (it != origin.end()) from = it->second;
+      if (scan_origin) {
+        for (const auto& [t, o] : origin)
+          if (t == from) {
+            from = o;
+            break;
+          }
+      } else {
+        const auto it = origin_of.find(from);
+        if (it != origin_of.end()) from = it->second;
+      }
     }
     added_tets.push_back(later.added_tets[i]);
     added_from.push_back(from);
