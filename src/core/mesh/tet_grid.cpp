@@ -39,12 +39,6 @@ constexpr double kMaxCellsPerTet = 4.0;
 
 }  // namespace
 
-bool tetBoxMeets(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) {
-  Vec3 tlo, thi;
-  tetBox(mesh, t, &tlo, &thi);
-  return (tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all();
-}
-
 std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
   std::array<int, 3> c;
   for (int d = 0; d < 3; ++d) {
