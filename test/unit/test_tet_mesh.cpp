@@ -105,33 +105,53 @@ TEST(TetMesh, MergingTheBisectionPointBackRestoresTheMesh) {
   EXPECT_FALSE(mesh.vertexAlive(m));
 }
 
-// ChangeRecord::append composes records into the net change, whether it scans its lists (a few
-// small records) or hashes them (many): what was added and removed again vanishes, what stays
-// removed was there at the start, every live tet is either added or there unchanged since the
-// start, and an added tet continues a removed tet of the start or is new.
+// ChangeRecord::append composes records into the net change: what was added and removed again
+// vanishes, what stays removed was there at the start, every live tet is either added or there
+// unchanged since the start, and an added tet continues a removed tet of the start or is new.
+// Bisections, their undoing and vertex moves (whose tets continue the ones they replace), a few
+// or a couple of hundred, appended one by one, or in two halves composed apart and then
+// appended; by scanning the lists or by hashing them (append's scan limit 0 or none): both give
+// the same record.
 TEST(TetMesh, AppendedRecordsGiveTheNetChange) {
-  for (const int operations : {5, 90}) {
+  for (const int operations : {7, 200}) {
     const MeshData b = makeBlock();
     TetMesh mesh(b.V, b.T);
     const int slots = mesh.tetSlots();
     std::vector<TetVerts> start(slots);
     for (int t = 0; t < slots; ++t) start[t] = mesh.tet(t);
     std::mt19937 rng(operations);
-    ChangeRecord total;
+    std::vector<ChangeRecord> steps;
     int last_mid = -1, last_end = -1;
     for (int k = 0; k < operations; ++k) {
       ChangeRecord step;
-      if (k % 3 == 2) {
+      if (k % 4 == 2) {
         mesh.mergeVertices(last_mid, last_end, &step);  // the bisection just made, undone
+      } else if (k % 4 == 3) {
+        const int v = static_cast<int>(rng() % b.V.rows());  // its star announced as replaced
+        mesh.moveVertex(v, {{v, 1.0}}, &step);
       } else {
         const auto edges = mesh.edges();
         const auto [a, c] = edges[rng() % edges.size()];
         last_mid = bisectEdge(mesh, a, c, &step);
         last_end = a;
       }
-      total.append(step);
+      steps.push_back(step);
     }
     ASSERT_EQ(mesh.validate(), "");
+    std::vector<ChangeRecord> composed;
+    for (const std::size_t limit : {std::size_t{0}, ~std::size_t{0}}) {
+      ChangeRecord first, second;
+      for (int k = 0; k < operations; ++k)
+        (operations > 100 && k >= operations / 2 ? second : first).append(steps[k], limit);
+      first.append(second, limit);
+      composed.push_back(first);
+    }
+    EXPECT_EQ(composed[0].removed_tets, composed[1].removed_tets) << operations;
+    EXPECT_EQ(composed[0].added_tets, composed[1].added_tets) << operations;
+    EXPECT_EQ(composed[0].added_from, composed[1].added_from) << operations;
+    EXPECT_EQ(composed[0].added_vertices, composed[1].added_vertices) << operations;
+    EXPECT_EQ(composed[0].removed_vertices, composed[1].removed_vertices) << operations;
+    const ChangeRecord& total = composed[0];
     const std::set<int> removed(total.removed_tets.begin(), total.removed_tets.end());
     const std::set<int> added(total.added_tets.begin(), total.added_tets.end());
     EXPECT_EQ(removed.size(), total.removed_tets.size()) << operations << ": each once";
@@ -151,11 +171,16 @@ TEST(TetMesh, AppendedRecordsGiveTheNetChange) {
       }
     }
     ASSERT_EQ(total.added_from.size(), total.added_tets.size());
-    for (int from : total.added_from) {
-      if (from >= 0) {
-        EXPECT_TRUE(removed.count(from)) << operations << ": continues " << from;
-      }
+    // A tet only moved continues its tet of the start: same corners, `from` that slot.
+    int continued = 0;
+    for (std::size_t i = 0; i < total.added_tets.size(); ++i) {
+      const int from = total.added_from[i];
+      if (from < 0) continue;
+      ++continued;
+      EXPECT_TRUE(removed.count(from)) << operations << ": continues " << from;
+      EXPECT_EQ(mesh.tet(total.added_tets[i]), start[from]) << operations << ": continues " << from;
     }
+    EXPECT_GT(continued, 0) << operations;
     for (int v : total.added_vertices) EXPECT_TRUE(mesh.vertexAlive(v)) << operations;
   }
 }

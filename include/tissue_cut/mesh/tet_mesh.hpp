@@ -70,6 +70,10 @@ struct ChangeRecord {
   /// Composes `later`, which happened after this record, into one net change: what was added
   /// and removed again within the two vanishes from both lists.
   void append(const ChangeRecord& later);
+  /// The same, scanning the lists while |later.removed_tets| times |added_tets| (and |later's
+  /// added| times |later's removed|) stays within scan_limit, hashing above: append() takes
+  /// 65536; both ways give the same record (a test composes with 0 and with no limit).
+  void append(const ChangeRecord& later, std::size_t scan_limit);
 };
 
 /// A tetrahedral mesh with incidence and adjacency kept up to date under every change.

@@ -66,14 +66,15 @@ bool ChangeRecord::empty() const {
          removed_vertices.empty();
 }
 
-void ChangeRecord::append(const ChangeRecord& later) {
+void ChangeRecord::append(const ChangeRecord& later) { append(later, std::size_t{1} << 16); }
+
+void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   // Compose into one net change: a tet or vertex added here and removed later never existed for
   // the consumers, and a tet continuing one of those continues what that one continued. Most
-  // records composed are small (one collapse, flip or move after another): then the lists are
-  // scanned; large ones go through hash maps.
-  constexpr std::size_t kScanLimit = 4096;
+  // records composed are small next to a tick's (one collapse, flip or move appended to what the
+  // tick did so far): then the lists are scanned; larger ones go through hash maps.
   const std::size_t n_added = added_tets.size();
-  const bool scan_added = later.removed_tets.size() * n_added <= kScanLimit;
+  const bool scan_added = later.removed_tets.size() * n_added <= scan_limit;
   std::unordered_map<int, std::size_t> added_at;
   if (!scan_added)
     for (std::size_t i = 0; i < n_added; ++i) added_at[added_tets[i]] = i;
@@ -116,7 +117,7 @@ void ChangeRecord::append(const ChangeRecord& later) {
     added_tets.resize(kept);
     added_from.resize(kept);
   }
-  const bool scan_origin = later.added_tets.size() * origin.size() <= kScanLimit;
+  const bool scan_origin = later.added_tets.size() * origin.size() <= scan_limit;
   std::unordered_map<int, int> origin_of;
   if (!scan_origin) origin_of.insert(origin.begin(), origin.end());
   for (std::size_t i = 0; i < later.added_tets.size(); ++i) {
