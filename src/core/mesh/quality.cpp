@@ -33,9 +33,20 @@ double tetCircumradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
 }
 
 double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  const double r_in = tetInradius(a, b, c, d);
-  const double r_circ = tetCircumradius(a, b, c, d);
-  if (!(r_in > 0) || !std::isfinite(r_circ) || !(r_circ > 0)) return 0.0;
+  // tetInradius and tetCircumradius written out with the volume taken once (the same operations:
+  // the same value); the remeshers ask for a few million of these a second.
+  const double vol = std::abs(signedVolume(a, b, c, d));
+  const double area = faceArea(b, c, d) + faceArea(a, c, d) + faceArea(a, b, d) + faceArea(a, b, c);
+  if (!(area > 0)) return 0.0;
+  const double r_in = 3.0 * vol / area;
+  if (!(r_in > 0) || !(vol > 0)) return 0.0;
+  const double p = (b - a).norm() * (d - c).norm();
+  const double q = (c - a).norm() * (d - b).norm();
+  const double r = (d - a).norm() * (c - b).norm();
+  const double s = 0.5 * (p + q + r);
+  const double heron = std::max(0.0, s * (s - p) * (s - q) * (s - r));
+  const double r_circ = std::sqrt(heron) / (6.0 * vol);
+  if (!std::isfinite(r_circ) || !(r_circ > 0)) return 0.0;
   return std::min(1.0, 3.0 * r_in / r_circ);
 }
 
