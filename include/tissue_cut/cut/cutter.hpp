@@ -188,6 +188,12 @@ class Cutter {
   BladeSegment gap_ref_, gap_last_;
   bool gap_valid_ = false;
   double gap_blade_ = 0.0, gap_tissue_ = 0.0;
+  // Beyond any reach until the gaps are taken again: a gap carried over (see sweepQuery()) is
+  // above it.
+  double gap_far_ = 0.0;
+  bool gap_retake_ = false;  // the cache changed: the next sweep's query takes the gaps again
+  std::vector<int> old_cache_;  // cacheNear()'s scratch: the cache it replaces, and its gaps
+  std::vector<double> old_gap_;
   std::optional<BladeSegment> previous_;
   Vec3 last_motion_ = Vec3::Zero();  // the blade's last move, to push a stroke's end ahead
   double frontShift() const { return 0.6 * snap_distance_; }

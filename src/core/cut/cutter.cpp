@@ -135,10 +135,22 @@ void Cutter::cacheNear(const Vec3& lo, const Vec3& hi) {
       (hi.array() > near_cache_hi_.array()).any()) {
     near_cache_lo_ = lo.array() - 0.5 * mean_edge_;
     near_cache_hi_ = hi.array() + 0.5 * mean_edge_;
+    const bool had = near_cache_valid_;
+    old_cache_.swap(near_cache_);
+    old_gap_.swap(near_gap_);
     grid_.candidates(*mesh_, near_cache_lo_, near_cache_hi_, &near_cache_);
     near_cache_valid_ = true;
-    near_gap_.assign(near_cache_.size(), 0.0);
-    gap_valid_ = false;
+    // The tets of the old cache keep their gaps (both lists are in id order), the others are
+    // measured by the next sweep's query, which takes the gaps again (see sweepQuery()).
+    near_gap_.assign(near_cache_.size(), std::numeric_limits<double>::quiet_NaN());
+    if (had) {
+      std::size_t j = 0;
+      for (std::size_t i = 0; i < near_cache_.size(); ++i) {
+        while (j < old_cache_.size() && old_cache_[j] < near_cache_[i]) ++j;
+        if (j < old_cache_.size() && old_cache_[j] == near_cache_[i]) near_gap_[i] = old_gap_[j];
+      }
+    }
+    gap_retake_ = true;
   }
 }
 
@@ -165,14 +177,33 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
   // The gaps are taken anew from this tick's blade when they are not known, when the blade
   // did not come from where the last sweep left it (a new stroke), when nobody says how far the
   // tissue moves, and when the moves since add up to a fifth of an edge (the filter loosens).
-  if (!gap_valid_ || !told_motion_ || from.base != gap_last_.base ||
-      from.tip != gap_last_.tip || !(gap_blade_ + step + gap_tissue_ <= 0.2 * mean_edge_)) {
+  // In the last case a tet's old gap less those moves still bounds its distance from the blade
+  // here (the blade came on from where the gaps were taken by at most gap_blade_, the tissue by
+  // at most gap_tissue_): a tet whose bound stays beyond any reach until the gaps are taken again
+  // (gap_far_) keeps it, and only the others are measured (most of the cache lies far from the
+  // blade).
+  const bool restart = !gap_valid_ || !told_motion_ || from.base != gap_last_.base ||
+                       from.tip != gap_last_.tip;
+  if (restart || gap_retake_ || !(gap_blade_ + step + gap_tissue_ <= 0.2 * mean_edge_)) {
+    gap_retake_ = false;
+    const double moves = gap_blade_ + gap_tissue_;
+    const bool carry = !restart && std::isfinite(moves);
+    gap_far_ = std::max({snap_distance_, frontShift(), wound_snap_distance_}) + 0.3 * mean_edge_;
     gap_ref_ = from;
     gap_blade_ = 0.0;
     gap_tissue_ = 0.0;
     near_gap_.resize(near_cache_.size());
-    for (std::size_t i = 0; i < near_cache_.size(); ++i)
-      near_gap_[i] = mesh_->tetAlive(near_cache_[i]) ? gapOf(near_cache_[i]) : 0.0;
+    for (std::size_t i = 0; i < near_cache_.size(); ++i) {
+      if (!mesh_->tetAlive(near_cache_[i])) {
+        near_gap_[i] = 0.0;
+        continue;
+      }
+      if (carry && near_gap_[i] - moves > gap_far_) {  // false for a tet new in the cache (NaN)
+        near_gap_[i] -= moves;
+        continue;
+      }
+      near_gap_[i] = gapOf(near_cache_[i]);
+    }
     gap_valid_ = true;
   }
   gap_blade_ += step;
@@ -186,6 +217,13 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
   const double reach = std::max(snap_distance_, frontShift()) + slack + moved;
   // Only a tet holding a vertex on a wound takes part from within the wound's band.
   const double wound_reach = std::max(reach, wound_snap_distance_ + slack + moved);
+  if (!(wound_reach < gap_far_)) {
+    // A blade so long that the tests' rounding room reaches past gap_far_ (kilometres): every
+    // gap measured, none carried.
+    for (std::size_t i = 0; i < near_cache_.size(); ++i)
+      near_gap_[i] = mesh_->tetAlive(near_cache_[i]) ? gapOf(near_cache_[i]) + gap_tissue_ : 0.0;
+    gap_far_ = HUGE_VAL;
+  }
   out->clear();
   for (std::size_t i = 0; i < near_cache_.size(); ++i) {
     const int t = near_cache_[i];
