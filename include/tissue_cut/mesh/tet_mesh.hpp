@@ -180,7 +180,10 @@ class TetMesh {
 };
 
 /// Signed volume of the tet (a, b, c, d): positive when d sees (a, b, c) counter-clockwise [m^3].
-double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+/// (Inline: the quality measures and the remeshers' checks call it tens of millions of times.)
+inline double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  return (b - a).dot((c - a).cross(d - a)) / 6.0;
+}
 
 /// Distance [m] from x to the segment ab (to a when the segment is a point).
 double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b);

@@ -8,7 +8,7 @@ namespace tissue_cut {
 
 namespace {
 
-double faceArea(const Vec3& a, const Vec3& b, const Vec3& c) {
+inline double faceArea(const Vec3& a, const Vec3& b, const Vec3& c) {
   return 0.5 * (b - a).cross(c - a).norm();
 }
 

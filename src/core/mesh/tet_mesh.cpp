@@ -26,10 +26,6 @@ int localFace(const TetVerts& t, int a, int b, int c) {
 
 }  // namespace
 
-double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  return (b - a).dot((c - a).cross(d - a)) / 6.0;
-}
-
 double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
   const Vec3 d = b - a;
   const double len2 = d.squaredNorm();
