@@ -136,8 +136,11 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
 // made by a cut is not refused for being small.
 bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
   const Vec3* p[4] = {&p0, &p1, &p2, &p3};
-  double longest = 0.0;
-  for (const auto& e : kTetEdge) longest = std::max(longest, (*p[e[0]] - *p[e[1]]).norm());
+  // One square root: it keeps the order of its arguments, so the root of the largest squared
+  // length is the largest length, to the bit.
+  double longest2 = 0.0;
+  for (const auto& e : kTetEdge) longest2 = std::max(longest2, (*p[e[0]] - *p[e[1]]).squaredNorm());
+  const double longest = std::sqrt(longest2);
   return signedVolume(p0, p1, p2, p3) > kMinCollapseRelativeVolume * longest * longest * longest;
 }
 
