@@ -42,8 +42,9 @@ constexpr double kMaxCellsPerTet = 4.0;
 std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
   std::array<int, 3> c;
   for (int d = 0; d < 3; ++d) {
-    const double u = std::floor((x[d] - origin_[d]) / cell_);
-    // Compare as doubles first: a far-away (or non-finite) point must not overflow the int.
+    const double u = (x[d] - origin_[d]) / cell_;
+    // Compare as doubles first: a far-away (or non-finite) point must not overflow the int. Past
+    // zero the conversion's truncation is the floor (and std::floor a library call here).
     c[d] = !(u > 0) ? 0 : u >= dims_[d] - 1 ? dims_[d] - 1 : static_cast<int>(u);
   }
   return c;
