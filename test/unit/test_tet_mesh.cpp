@@ -185,6 +185,59 @@ TEST(TetMesh, AppendedRecordsGiveTheNetChange) {
   }
 }
 
+// moveVertex announces the moved vertex's star as replaced by the same tets; it must leave the
+// mesh exactly as that replacement does: slots, adjacency and each vertex's list of tets in the
+// same order (the remeshers and the cutter walk them in that order), and the same record. Moves
+// of interior and boundary vertices, each after some cuts left free slots, on two copies of a
+// block: one moved, the other replaced. A move that would flatten a tet is refused with the
+// mesh unchanged.
+TEST(TetMesh, MovingAVertexEqualsReplacingItsStarByTheSameTets) {
+  const MeshData b = makeBlock();
+  TetMesh moved(b.V, b.T);
+  std::mt19937 rng(3);
+  for (int k = 0; k < 6; ++k) {  // free slots in the list, as cuts leave them
+    const auto edges = moved.edges();
+    const auto [a, c] = edges[rng() % edges.size()];
+    bisectEdge(moved, a, c, nullptr);
+  }
+  TetMesh replaced = moved;
+  for (int k = 0; k < 40; ++k) {
+    const int v = static_cast<int>(rng() % moved.vertexSlots());
+    if (!moved.vertexAlive(v)) continue;
+    ChangeRecord by_move, by_replace;
+    moved.moveVertex(v, {{v, 1.0}}, &by_move);
+    const std::vector<int> star = replaced.vertexTets(v);
+    std::vector<TetVerts> same;
+    for (int t : star) same.push_back(replaced.tet(t));
+    replaced.replaceTets(star, same, &by_replace, &star);
+    EXPECT_EQ(by_move.removed_tets, by_replace.removed_tets) << "vertex " << v;
+    EXPECT_EQ(by_move.added_tets, by_replace.added_tets) << "vertex " << v;
+    EXPECT_EQ(by_move.added_from, by_replace.added_from) << "vertex " << v;
+    ASSERT_EQ(moved.tetSlots(), replaced.tetSlots());
+    for (int t = 0; t < moved.tetSlots(); ++t) {
+      ASSERT_EQ(moved.tetAlive(t), replaced.tetAlive(t)) << "vertex " << v << ", tet " << t;
+      if (!moved.tetAlive(t)) continue;
+      ASSERT_EQ(moved.tet(t), replaced.tet(t)) << "vertex " << v << ", tet " << t;
+      for (int f = 0; f < 4; ++f)
+        ASSERT_EQ(moved.neighbor(t, f), replaced.neighbor(t, f)) << "vertex " << v << ", tet " << t;
+    }
+    for (int u = 0; u < moved.vertexSlots(); ++u)
+      ASSERT_EQ(moved.vertexTets(u), replaced.vertexTets(u)) << "vertex " << v << ", its " << u;
+  }
+  EXPECT_EQ(moved.validate(), "");
+  EXPECT_EQ(moved.numBoundaryFaces(), replaced.numBoundaryFaces());
+  // Onto a neighbour's far side: some tet of the star turns inside out. Refused, nothing moved.
+  const int v = moved.tet(0)[0];
+  const int w = moved.tet(0)[1];
+  const Vec3 rest = moved.rest(v), current = moved.current(v);
+  const std::vector<int> star = moved.vertexTets(v);
+  EXPECT_THROW(moved.moveVertex(v, {{v, -1.0}, {w, 2.0}}, nullptr), std::logic_error);
+  EXPECT_EQ(moved.rest(v), rest);
+  EXPECT_EQ(moved.current(v), current);
+  EXPECT_EQ(moved.vertexTets(v), star);
+  EXPECT_EQ(moved.validate(), "");
+}
+
 TEST(TetMesh, RemovedSlotsAreReusedAndAnnounced) {
   TetMesh mesh = twoTets();
   ChangeRecord record;

@@ -176,6 +176,10 @@ class TetMesh {
   std::vector<unsigned> removing_;
   unsigned removing_stamp_ = 0;
   std::vector<std::array<int, 3>> face_scratch_;
+  // moveVertex()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
+  std::vector<int> move_place_, move_vertices_;
+  std::vector<TetVerts> move_tets_;
+  std::vector<std::array<int, 4>> move_neighbors_;
   int num_vertices_ = 0, num_tets_ = 0, num_boundary_faces_ = 0, reoriented_ = 0;
 };
 

@@ -459,13 +459,83 @@ void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, Change
     c += p.weight * current_[p.vertex];
     u += p.weight * velocity_[p.vertex];
   }
+  // The star is announced as replaced by the same tets, exactly as replaceTets(star, star's tets,
+  // record, &star) would leave it (that is what this did): the slots taken back in reverse
+  // order (the free list is a stack), so the tet of star[i] moves to slot star[n - 1 - i]; each
+  // vertex's list keeps its other tets in order and gets the star's new slots at its end;
+  // adjacency follows the slots. Without its checks and unlinking and relinking: nothing but
+  // the numbering changes (a smoothing move costs a tenth of what it did).
+  const std::vector<int> star = vertex_tets_[v];
+  const int n = static_cast<int>(star.size());
+  const Vec3 old_rest = rest_[v];
   rest_[v] = r;
+  for (int t : star) {
+    const TetVerts& tv = tets_[t];
+    if (!(signedVolume(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]) > 0.0)) {
+      rest_[v] = old_rest;
+      throw std::logic_error("TetMesh::moveVertex: tet (" + std::to_string(tv[0]) + ", " +
+                             std::to_string(tv[1]) + ", " + std::to_string(tv[2]) + ", " +
+                             std::to_string(tv[3]) + ") would have no positive rest volume");
+    }
+  }
   current_[v] = c;
   velocity_[v] = u;
-  const std::vector<int> star = vertex_tets_[v];
-  std::vector<TetVerts> same;
-  for (int t : star) same.push_back(tets_[t]);
-  replaceTets(star, same, record, &star);
+  // Per tet slot, 1 + its place in the star (removing_ is replaceTets' scratch, stamped alike).
+  if (removing_.size() < tets_.size()) removing_.resize(tets_.size(), 0);
+  std::vector<int>& place = move_place_;
+  if (place.size() < tets_.size()) place.resize(tets_.size(), 0);
+  if (++removing_stamp_ == 0) {
+    std::fill(removing_.begin(), removing_.end(), 0u);
+    removing_stamp_ = 1;
+  }
+  for (int i = 0; i < n; ++i) {
+    removing_[star[i]] = removing_stamp_;
+    place[star[i]] = i;
+  }
+  auto inStar = [&](int t) { return t >= 0 && removing_[t] == removing_stamp_; };
+  auto slotOf = [&](int t) { return star[n - 1 - place[t]]; };  // where t's tet goes
+  move_tets_.assign(n, TetVerts{});
+  move_neighbors_.assign(n, std::array<int, 4>{});
+  for (int i = 0; i < n; ++i) {
+    move_tets_[i] = tets_[star[i]];
+    for (int f = 0; f < 4; ++f) {
+      const int w = neighbors_[star[i]][f];
+      move_neighbors_[i][f] = inStar(w) ? slotOf(w) : w;
+    }
+  }
+  // Neighbours outside the star point at the new slots (their face found by its vertices).
+  for (int i = 0; i < n; ++i) {
+    const TetVerts& tv = move_tets_[i];
+    for (int f = 0; f < 4; ++f) {
+      const int w = move_neighbors_[i][f];
+      if (w < 0 || inStar(neighbors_[star[i]][f])) continue;
+      neighbors_[w][localFace(tets_[w], tv[kTetFace[f][0]], tv[kTetFace[f][1]],
+                              tv[kTetFace[f][2]])] = star[n - 1 - i];
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    tets_[star[n - 1 - i]] = move_tets_[i];
+    neighbors_[star[n - 1 - i]] = move_neighbors_[i];
+  }
+  // Each vertex of the star: its other tets in order, then the star's slots in the order taken.
+  std::vector<int>& verts = move_vertices_;
+  verts.clear();
+  for (const TetVerts& tv : move_tets_) verts.insert(verts.end(), tv.begin(), tv.end());
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  for (int w : verts) {
+    std::vector<int>& list = vertex_tets_[w];
+    list.erase(std::remove_if(list.begin(), list.end(), inStar), list.end());
+    for (int i = 0; i < n; ++i)
+      if (contains(move_tets_[i], w)) list.push_back(star[n - 1 - i]);
+  }
+  if (record) {
+    record->removed_tets.insert(record->removed_tets.end(), star.begin(), star.end());
+    for (int i = 0; i < n; ++i) {
+      record->added_tets.push_back(star[n - 1 - i]);
+      record->added_from.push_back(star[i]);
+    }
+  }
 }
 
 void TetMesh::mergeVertices(int removed, int survivor, ChangeRecord* record) {
