@@ -150,7 +150,9 @@ bool isBoundaryEdge(const TetMesh& mesh, int a, int b) {
 bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
   const bool live = a >= 0 && b >= 0 && a < mesh.vertexSlots() && b < mesh.vertexSlots() &&
                     a != b && mesh.vertexAlive(a) && mesh.vertexAlive(b);
-  thread_local Scratch s;
+  thread_local Scratch scratch;
+  Scratch& s = scratch;  // the thread's copy looked up once (in a shared library each lookup of
+                         // a thread_local is a call)
   s.star.clear();
   if (live)
     for (int t : mesh.vertexTets(a))
