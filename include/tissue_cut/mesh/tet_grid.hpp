@@ -109,7 +109,6 @@ class TetGrid {
   // Per tet slot, the stamp of the query or refresh that last took it: each tet once a call.
   mutable std::vector<unsigned> seen_;
   mutable unsigned stamp_ = 0;
-  void nextStamp(const TetMesh& mesh) const;
 };
 
 }  // namespace tissue_cut

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <string>
@@ -26,6 +27,17 @@ inline std::array<int, 3> sortedFace(int a, int b, int c) {
   if (b > c) std::swap(b, c);
   if (a > b) std::swap(a, b);
   return {a, b, c};
+}
+
+/// A new mark for one pass over per-slot stamps (each pass marks what it has seen with *call),
+/// the stamps grown to `slots` entries; when the counter wraps, all are cleared so that no old
+/// mark equals the new one.
+inline void nextStamp(std::vector<unsigned>* stamps, unsigned* call, std::size_t slots) {
+  if (stamps->size() < slots) stamps->resize(slots, 0);
+  if (++*call == 0) {
+    std::fill(stamps->begin(), stamps->end(), 0u);
+    *call = 1;
+  }
 }
 
 /// Where vertex v sits in tet t (0-3), or -1 when t does not hold it.
@@ -147,7 +159,8 @@ class TetMesh {
   /// Moves vertex v to the parents' weighted sums of rest and current positions and velocities
   /// (`parents` may name v itself; weights sum to 1), then announces its star as replaced by the
   /// same tets (added_from = themselves), so masses and springs follow. The caller makes sure no
-  /// tet of the star inverts. Throws std::logic_error for a dead vertex or parent.
+  /// tet of the star inverts. Throws std::logic_error (mesh unchanged) for a dead vertex or
+  /// parent, or when a tet of the star would have no positive rest volume.
   void moveVertex(int v, const std::vector<VertexParent>& parents, ChangeRecord* record);
   /// Moves every tet of `removed` onto `survivor`; tets holding both vanish; `removed` dies.
   /// Geometry of the survivor is unchanged.

@@ -23,16 +23,6 @@ void renameIn(TetCut* cut, int from, int to) {
     if (v == from) v = to;
 }
 
-// A new mark for one pass over per-slot stamps, which grow to `slots` entries; when the counter
-// wraps, all are cleared so that no old mark equals the new one.
-void nextStamp(std::vector<unsigned>* stamps, unsigned* call, std::size_t slots) {
-  if (stamps->size() < slots) stamps->resize(slots, 0);
-  if (++*call == 0) {
-    std::fill(stamps->begin(), stamps->end(), 0);
-    *call = 1;
-  }
-}
-
 }  // namespace
 
 Cutter::Cutter(TetMesh* mesh, const CutterOptions& options) : mesh_(mesh), options_(options) {

@@ -62,14 +62,6 @@ TetGrid::Box TetGrid::boxOf(const TetMesh& mesh, int t, Filed* cells) const {
   return box;
 }
 
-void TetGrid::nextStamp(const TetMesh& mesh) const {
-  if (seen_.size() < static_cast<std::size_t>(mesh.tetSlots())) seen_.resize(mesh.tetSlots(), 0);
-  if (++stamp_ == 0) {
-    std::fill(seen_.begin(), seen_.end(), 0);
-    stamp_ = 1;
-  }
-}
-
 void TetGrid::insert(const TetMesh& mesh, int t) {
   Filed f;
   const Box box = boxOf(mesh, t, &f);
@@ -140,7 +132,7 @@ void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refil
   const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
   const Vec3* now = mesh.currentPositions().data();
   const std::size_t first = refiled->size();
-  nextStamp(mesh);
+  nextStamp(&seen_, &stamp_, mesh.tetSlots());
   double farthest = 0.0;  // squared, of the vertices left where they are filed
   for (int v = 0; v < n; ++v) {
     const double d2 = (now[v] - built_positions_[v]).squaredNorm();
@@ -228,7 +220,7 @@ void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool cu
                     std::vector<int>* out) const {
   out->clear();
   if (cells_.empty()) return;
-  nextStamp(mesh);
+  nextStamp(&seen_, &stamp_, mesh.tetSlots());
   const Vec3 margin = Vec3::Constant(margin_);
   const auto [i0, j0, k0] = cellOf(lo - margin);
   const auto [i1, j1, k1] = cellOf(hi + margin);

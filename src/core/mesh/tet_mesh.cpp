@@ -16,7 +16,6 @@ bool contains(const TetVerts& t, int v) {
   return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v);
 }
 
-
 // Local face of tet t made of vertices {a, b, c}: the one opposite the fourth vertex.
 int localFace(const TetVerts& t, int a, int b, int c) {
   for (int i = 0; i < 4; ++i)
@@ -379,11 +378,7 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
   // Check everything first, so a refused change leaves the mesh as it was. The tets removed are
   // marked with this call's stamp, the new faces sorted and counted (no set or hash map: a move
   // of one vertex replaces its star through here).
-  if (removing_.size() < tets_.size()) removing_.resize(tets_.size(), 0);
-  if (++removing_stamp_ == 0) {
-    std::fill(removing_.begin(), removing_.end(), 0u);
-    removing_stamp_ = 1;
-  }
+  nextStamp(&removing_, &removing_stamp_, tets_.size());
   for (int t : remove)
     if (t < 0 || t >= tetSlots() || !tet_alive_[t])
       throw std::logic_error("TetMesh::replaceTets: removing dead tet " + std::to_string(t));
@@ -480,14 +475,10 @@ void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, Change
   }
   current_[v] = c;
   velocity_[v] = u;
-  // Per tet slot, 1 + its place in the star (removing_ is replaceTets' scratch, stamped alike).
-  if (removing_.size() < tets_.size()) removing_.resize(tets_.size(), 0);
+  // The star's slots marked in replaceTets' scratch (this call's stamp), with their places.
+  nextStamp(&removing_, &removing_stamp_, tets_.size());
   std::vector<int>& place = move_place_;
   if (place.size() < tets_.size()) place.resize(tets_.size(), 0);
-  if (++removing_stamp_ == 0) {
-    std::fill(removing_.begin(), removing_.end(), 0u);
-    removing_stamp_ = 1;
-  }
   for (int i = 0; i < n; ++i) {
     removing_[star[i]] = removing_stamp_;
     place[star[i]] = i;
