@@ -51,6 +51,9 @@ struct Config {
     std::string fixed_side = "min";       ///< min or max
     double fixed_band = 0.001;            ///< vertices this close to that side are fixed [m]
     int threads = 2;  ///< threads of the implicit step (at most the machine's hardware threads)
+    /// Precondition the cut's stiff, light vertex clusters whole (see
+    /// MassSpringParams::cluster_preconditioner); false: block-Jacobi alone.
+    bool cluster_preconditioner = true;
   } physics;
 
   /// The first invalid value as "key: why", or "" when all are usable.

@@ -68,6 +68,9 @@ struct Statistics {
     /// (last step).
     double inertia_added = 0.0;
     int threads = 1;  ///< threads of the implicit step
+    /// Vertex clusters the implicit step's preconditioner inverts whole (last step; see
+    /// MassSpringParams::cluster_preconditioner).
+    int clusters = 0;
   } physics;
   struct {
     std::int64_t count = 0;

@@ -57,6 +57,8 @@ const std::map<std::string, Setter>& setters() {
       {"physics/fixed_band",
        [](const YAML::Node& n, Config& c) { c.physics.fixed_band = n.as<double>(); }},
       {"physics/threads", [](const YAML::Node& n, Config& c) { c.physics.threads = n.as<int>(); }},
+      {"physics/cluster_preconditioner",
+       [](const YAML::Node& n, Config& c) { c.physics.cluster_preconditioner = n.as<bool>(); }},
   };
   return table;
 }

@@ -76,7 +76,8 @@ nlohmann::json Statistics::toJson() const {
                   {"cg_iterations_mean", physics.cg_iterations_mean},
                   {"ns_per_spring_iteration", physics.ns_per_spring_iteration},
                   {"inertia_added", physics.inertia_added},
-                  {"threads", physics.threads}};
+                  {"threads", physics.threads},
+                  {"clusters", physics.clusters}};
   j["ticks"] = {{"count", ticks.count},           {"rate_hz", ticks.rate_hz},
                 {"p50_ms", ticks.p50_ms},         {"p99_ms", ticks.p99_ms},
                 {"max_ms", ticks.max_ms},         {"deadline_misses", ticks.deadline_misses},

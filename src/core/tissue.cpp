@@ -40,6 +40,7 @@ MassSpringParams massSpringParams(const Config& config) {
   p.fixed_max_side = config.physics.fixed_side == "max";
   p.fixed_band = config.physics.fixed_band;
   p.threads = config.physics.threads;
+  p.cluster_preconditioner = config.physics.cluster_preconditioner;
   return p;
 }
 
@@ -186,6 +187,7 @@ Statistics Tissue::statistics() const {
   s.physics.time_ms = physics_->timeMs();
   s.physics.inertia_added = physics_->addedInertia();
   s.physics.threads = physics_->numThreads();
+  s.physics.clusters = physics_->numClusters();
   if (physics_->steps() > 0)
     s.physics.cg_iterations_mean =
         static_cast<double>(physics_->totalIterations()) / physics_->steps();

@@ -43,6 +43,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.physics.fixed_side = "max";
   other.physics.fixed_band = 0.5;
   other.physics.threads = 7;
+  other.physics.cluster_preconditioner = !d.physics.cluster_preconditioner;
   const Config f =
       loadConfigFile(std::string(TISSUE_CUT_SOURCE_DIR) + "/config/tissue.yaml", other);
   EXPECT_EQ(f.rate, d.rate);
@@ -66,7 +67,8 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.physics.fixed_side, d.physics.fixed_side);
   EXPECT_EQ(f.physics.fixed_band, d.physics.fixed_band);
   EXPECT_EQ(f.physics.threads, d.physics.threads);
-  EXPECT_EQ(configKeys().size(), 21u) << "a key was added: extend this test and tissue.yaml";
+  EXPECT_EQ(f.physics.cluster_preconditioner, d.physics.cluster_preconditioner);
+  EXPECT_EQ(configKeys().size(), 22u) << "a key was added: extend this test and tissue.yaml";
 }
 
 TEST(Config, PartialFileOverridesOnlyItsKeys) {
@@ -96,6 +98,7 @@ TEST(Config, AbsurdValuesAreNamed) {
       {"physics:\n  threads: 0\n", "physics/threads"},
       {"physics:\n  threads: 1000\n", "physics/threads"},
       {"physics:\n  threads: 1.5\n", "physics/threads"},
+      {"physics:\n  cluster_preconditioner: maybe\n", "physics/cluster_preconditioner"},
       {"rate: fast\n", "rate"},
   };
   for (const auto& [text, key] : cases) {

@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Cholesky>
+
 #include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/physics/worker_team.hpp"
 
@@ -32,6 +34,10 @@ struct MassSpringParams {
   /// iterations than at 1e-6.
   double cg_tolerance = 1e-5;
   double max_speed = 50.0;     ///< a faster vertex means the step blew up [m/s]
+  /// Vertices tied by springs far stiffer than their mass over a step (the corners of a cut's
+  /// slivers) are preconditioned as clusters, each cluster's whole block of the system inverted
+  /// (see MassSpring::clusters()); false: each vertex's own 3x3 block only (block-Jacobi).
+  bool cluster_preconditioner = true;
   /// Threads the implicit step's loops run on (at most the machine's hardware threads). The
   /// result depends on the count (sums are split), never on timing.
   int threads = 1;
@@ -64,6 +70,9 @@ class MassSpring {
   long long totalIterations() const { return total_iterations_; }
   double timeMs() const { return time_ms_; }
   int numSprings() const { return static_cast<int>(springs_.size()); }
+  /// The vertex clusters the last implicit step preconditioned whole, each sorted; in order.
+  std::vector<std::vector<int>> clusters() const;
+  int numClusters() const { return static_cast<int>(clusters_.size()); }
   /// Threads the implicit step runs on: params().threads, at most the hardware threads.
   int numThreads() const;
   double mass(int v) const { return mass_[v]; }
@@ -111,6 +120,40 @@ class MassSpring {
     alignas(64) double fx[kSize], fy[kSize], fz[kSize];  // f + K (u_b - u_a) / h
   };
   static void springTerms(SpringBatch* s, double h2, double inv_dt);
+  // Cluster preconditioning. Block-Jacobi inverts each vertex's own 3x3 block of A; where a
+  // spring is far stiffer than its lighter end's inertia over a step (the corners of a cut's
+  // slivers: h^2 k of kStrongCoupling m and more), the ends' motion together, which only their
+  // small inertia and weak ties to the rest resist, then takes CG many iterations. Such vertices
+  // are grouped in clusters of up to kMaxCluster, and the preconditioner inverts each cluster's
+  // whole block of A instead (still a block-diagonal, symmetric positive definite P: CG's answer
+  // is the same to its tolerance).
+  static constexpr int kMaxCluster = 4;
+  static constexpr double kStrongCoupling = 2.0;
+  struct Cluster {
+    int size = 0;
+    std::array<int, kMaxCluster> vertices{};
+    int num_springs = 0;
+    /// The springs between its vertices: index in springs_, and the two ends' places in vertices.
+    std::array<std::array<int, 3>, kMaxCluster*(kMaxCluster - 1) / 2> springs{};
+    using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3 * kMaxCluster,
+                                 3 * kMaxCluster>;
+    Eigen::LLT<Matrix> factor;  // of its block of A, this step
+    bool usable = false;        // factor is of a positive definite block
+  };
+  /// h^2 k / m of spring a-b (m its lighter end's mass) when that is at least strongThreshold(),
+  /// neither end fixed nor dead; 0 otherwise (no such spring included).
+  double strongRatio(int a, int b, double dt) const;
+  /// kStrongCoupling, or the loaded mesh's 99th percentile of h^2 k / m where that is more (a
+  /// stiff material or a long step): clusters are for what cuts make, not for a whole mesh.
+  double strongThreshold(double dt) const;
+  void rescanStrong(double dt);                         // strong_ from every spring
+  void updateStrong(const std::vector<int>& vertices);  // strong_ at these vertices again
+  void buildClusters();                                 // clusters_ from strong_
+  /// Factors each cluster's block of A from cluster_diag_ and the springs' blocks.
+  void factorClusters();
+  /// z = the clusters' blocks' inverses times r on the clusters' vertices (also into *p when
+  /// given); returns the change this makes to sum r.z.
+  double applyClusters(const Vec3* r, Vec3* z, Vec3* p);
   /// The parts' shares of sum k of the last parallel loop, added in part order.
   double partialSum(int k) const;
   bool stepImplicit(double dt);
@@ -149,6 +192,14 @@ class MassSpring {
     double sum[4];
   };
   std::vector<Partial> partial_;
+  std::vector<std::array<int, 2>> strong_;  // strong springs' ends (lower first), sorted
+  double strong_dt_ = 0.0;                 // the step size of strong_; 0: find them all again
+  std::vector<Cluster> clusters_;
+  std::vector<int> cluster_of_;      // per vertex: its cluster's index in clusters_, or -1
+  std::vector<Block> cluster_diag_;  // a cluster vertex's own block of A, this step
+  std::vector<std::pair<double, std::array<int, 2>>> strong_order_;  // buildClusters()' scratch
+  double loaded_coupling_ = 0.0;  // the loaded mesh's p99 k / lighter mass, per E / density
+  bool clusters_stale_ = true;    // strong_ changed since clusters_ were built
   std::unique_ptr<WorkerTeam> team_;  // none: one thread
   double mass_damping_ = 1.0;    // 1 + h alpha of this step
   int instabilities_ = 0, last_iterations_ = 0;

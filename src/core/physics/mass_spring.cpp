@@ -55,6 +55,19 @@ MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
   for (const auto& [a, b] : edges) sum += (mesh_->rest(a) - mesh_->rest(b)).norm();
   reference_length_ = edges.empty() ? 0.0 : sum / edges.size();
   for (const auto& [a, b] : edges) updateSpring(a, b);
+  // The loaded mesh's 99th percentile of k / (lighter end's mass), per unit of E / density (see
+  // strongThreshold()).
+  std::vector<double> couplings;
+  couplings.reserve(springs_.size());
+  for (const Spring& s : springs_) {
+    const double lighter = std::min(mass_[s.a], mass_[s.b]);
+    if (lighter > 0) couplings.push_back(s.stiffness / lighter);
+  }
+  if (!couplings.empty()) {
+    const auto at = couplings.begin() + couplings.size() * 99 / 100;
+    std::nth_element(couplings.begin(), at, couplings.end());
+    loaded_coupling_ = *at * params_.density / params_.young_modulus;
+  }
   if (params_.fixed_band >= 0) {
     double side = params_.fixed_max_side ? -1e300 : 1e300;
     for (int v = 0; v < mesh_->vertexSlots(); ++v) {
@@ -73,6 +86,7 @@ void MassSpring::setParams(const MassSpringParams& params) {
   const bool stiffness_changed = params.young_modulus != params_.young_modulus;
   const bool mass_changed = params.density != params_.density;
   params_ = params;
+  strong_dt_ = 0.0;  // found again at the next step
   makeTeam();
   if (mass_changed)
     for (int v = 0; v < mesh_->vertexSlots(); ++v)
@@ -97,6 +111,7 @@ void MassSpring::resize() {
 }
 
 void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
+  strong_dt_ = 0.0;  // found again at the next step
   for (int v : vertices)
     if (v >= 0 && v < static_cast<int>(fixed_.size())) fixed_[v] = fixed ? 1 : 0;
 }
@@ -197,6 +212,7 @@ void MassSpring::follow(const ChangeRecord& change) {
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   for (int v : vertices) updateMass(v);
   for (const auto& [a, b] : edges) updateSpring(a, b);
+  if (strong_dt_ > 0 && !vertices.empty()) updateStrong(vertices);
 }
 
 double MassSpring::totalMass() const {
@@ -391,6 +407,159 @@ void MassSpring::springTerms(SpringBatch* s, double h2, double inv_dt) {
   }
 }
 
+std::vector<std::vector<int>> MassSpring::clusters() const {
+  std::vector<std::vector<int>> out;
+  for (const Cluster& c : clusters_) {
+    out.emplace_back(c.vertices.begin(), c.vertices.begin() + c.size);
+    std::sort(out.back().begin(), out.back().end());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+double MassSpring::strongThreshold(double dt) const {
+  if (!params_.cluster_preconditioner) return HUGE_VAL;  // no spring is strong enough
+  const double loaded = dt * dt * loaded_coupling_ * params_.young_modulus / params_.density;
+  return std::max(kStrongCoupling, loaded);
+}
+
+double MassSpring::strongRatio(int a, int b, double dt) const {
+  if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b) || fixed_[a] || fixed_[b]) return 0.0;
+  const int i = findSpring(a, b);
+  const double lighter = std::min(mass_[a], mass_[b]);
+  if (i < 0 || !(lighter > 0)) return 0.0;
+  const double ratio = dt * dt * springs_[i].stiffness / lighter;
+  return ratio >= strongThreshold(dt) ? ratio : 0.0;
+}
+
+void MassSpring::rescanStrong(double dt) {
+  strong_dt_ = dt;
+  strong_.clear();
+  for (const Spring& s : springs_)
+    if (strongRatio(s.a, s.b, dt) > 0) strong_.push_back({s.a, s.b});
+  std::sort(strong_.begin(), strong_.end());
+  clusters_stale_ = true;
+}
+
+void MassSpring::updateStrong(const std::vector<int>& vertices) {
+  // A spring's strength changes with its stiffness and its ends' masses: those of the changed
+  // tets' edges and vertices, so every spring that can change has an end among `vertices`
+  // (sorted). Those are taken out and tested again; the rest stand.
+  auto changed = [&](int v) { return std::binary_search(vertices.begin(), vertices.end(), v); };
+  strong_.erase(std::remove_if(strong_.begin(), strong_.end(),
+                               [&](const std::array<int, 2>& e) {
+                                 return changed(e[0]) || changed(e[1]);
+                               }),
+                strong_.end());
+  for (int v : vertices) {
+    if (!mesh_->vertexAlive(v)) continue;
+    for (int t : mesh_->vertexTets(v))
+      for (int u : mesh_->tet(t))
+        if (u != v && strongRatio(u, v, strong_dt_) > 0)
+          strong_.push_back({std::min(u, v), std::max(u, v)});
+  }
+  std::sort(strong_.begin(), strong_.end());
+  strong_.erase(std::unique(strong_.begin(), strong_.end()), strong_.end());
+  clusters_stale_ = true;
+}
+
+void MassSpring::buildClusters() {
+  // Strong springs, strongest first, join their ends' clusters while the union stays within
+  // kMaxCluster vertices (greedy: the strongest ties are the ones a 3x3 block misses most).
+  clusters_stale_ = false;
+  for (const Cluster& c : clusters_)
+    for (int k = 0; k < c.size; ++k) cluster_of_[c.vertices[k]] = -1;
+  cluster_of_.resize(mesh_->vertexSlots(), -1);
+  cluster_diag_.resize(mesh_->vertexSlots());
+  clusters_.clear();
+  auto& order = strong_order_;  // capacity kept
+  order.clear();
+  for (const auto& e : strong_) order.push_back({strongRatio(e[0], e[1], strong_dt_), e});
+  std::sort(order.begin(), order.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first > y.first : x.second < y.second;
+  });
+  auto add = [&](int c, int v) {
+    clusters_[c].vertices[clusters_[c].size++] = v;
+    cluster_of_[v] = c;
+  };
+  for (const auto& [ratio, e] : order) {
+    const int a = e[0], b = e[1];
+    int ca = cluster_of_[a];
+    const int cb = cluster_of_[b];
+    if (ca >= 0 && ca == cb) continue;
+    const int together = (ca >= 0 ? clusters_[ca].size : 1) + (cb >= 0 ? clusters_[cb].size : 1);
+    if (together > kMaxCluster) continue;
+    if (ca < 0) {
+      ca = static_cast<int>(clusters_.size());
+      clusters_.emplace_back();
+      add(ca, a);
+    }
+    if (cb < 0) {
+      add(ca, b);
+    } else {
+      Cluster& from = clusters_[cb];
+      for (int k = 0; k < from.size; ++k) add(ca, from.vertices[k]);
+      from.size = 0;  // dropped below
+    }
+  }
+  // Drop the emptied ones, renumber, and list each cluster's inner springs.
+  int kept = 0;
+  for (int c = 0; c < static_cast<int>(clusters_.size()); ++c) {
+    if (clusters_[c].size == 0) continue;
+    if (kept != c) clusters_[kept] = clusters_[c];
+    Cluster& cl = clusters_[kept];
+    cl.num_springs = 0;
+    for (int i = 0; i < cl.size; ++i) {
+      cluster_of_[cl.vertices[i]] = kept;
+      for (int j = i + 1; j < cl.size; ++j) {
+        const int s = findSpring(cl.vertices[i], cl.vertices[j]);
+        if (s >= 0) cl.springs[cl.num_springs++] = {s, i, j};
+      }
+    }
+    ++kept;
+  }
+  clusters_.resize(kept);
+}
+
+void MassSpring::factorClusters() {
+  for (Cluster& c : clusters_) {
+    const int m = 3 * c.size;
+    Cluster::Matrix a = Cluster::Matrix::Zero(m, m);
+    auto put = [&](int i, int j, const Block& k, double sign) {
+      const double e[3][3] = {{k.xx, k.xy, k.xz}, {k.xy, k.yy, k.yz}, {k.xz, k.yz, k.zz}};
+      for (int r = 0; r < 3; ++r)
+        for (int q = 0; q < 3; ++q) a(3 * i + r, 3 * j + q) = sign * e[r][q];
+    };
+    for (int i = 0; i < c.size; ++i) put(i, i, cluster_diag_[c.vertices[i]], 1.0);
+    for (int s = 0; s < c.num_springs; ++s) {
+      const auto& [spring, i, j] = c.springs[s];
+      put(i, j, blocks_[spring], -1.0);  // A p at a has -h^2 K p_b
+      put(j, i, blocks_[spring], -1.0);
+    }
+    c.factor.compute(a);
+    c.usable = c.factor.info() == Eigen::Success;
+  }
+}
+
+double MassSpring::applyClusters(const Vec3* r, Vec3* z, Vec3* p) {
+  double change = 0.0;
+  using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3 * kMaxCluster, 1>;
+  for (const Cluster& c : clusters_) {
+    if (!c.usable) continue;  // its vertices keep their own blocks
+    Vector rhs(3 * c.size);
+    for (int i = 0; i < c.size; ++i) rhs.segment<3>(3 * i) = r[c.vertices[i]];
+    const Vector x = c.factor.solve(rhs);
+    for (int i = 0; i < c.size; ++i) {
+      const int v = c.vertices[i];
+      const Vec3 zv = x.segment<3>(3 * i);
+      change += r[v].dot(zv - z[v]);
+      z[v] = zv;
+      if (p) p[v] = zv;
+    }
+  }
+  return change;
+}
+
 bool MassSpring::stepImplicit(double dt) {
   // Linearly-implicit backward Euler: (M (1 + h alpha) + h^2 K) dv = h (f0 + h K v0), solved by
   // block-Jacobi preconditioned CG. Every loop runs in numThreads() parts: vertex loops over
@@ -427,6 +596,8 @@ bool MassSpring::stepImplicit(double dt) {
       dv[v] = held[v] ? Vec3::Zero() : Vec3(2.0 * warm[v] - warm_prev[v]);
     }
   });
+  if (dt != strong_dt_) rescanStrong(dt);
+  if (clusters_stale_ || static_cast<int>(cluster_of_.size()) != n) buildClusters();
   // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
   // forces, their stiffness blocks (kept scaled by h^2 for the CG products), the diagonal blocks
   // of A for the preconditioner and the springs' part of A dv.
@@ -441,6 +612,8 @@ bool MassSpring::stepImplicit(double dt) {
     const double* mass = mass_.data();
     const double* inertia = inertia_.data();
     const unsigned char* held = held_.data();
+    const int* cluster_of = cluster_of_.data();
+    Block* cluster_diag = cluster_diag_.data();
     double weight2 = 0.0, b_norm = 0.0, rz = 0.0, rr = 0.0;
     for (int v = begin; v < end; ++v) {
       const bool alive = mesh_->vertexAlive(v);
@@ -454,6 +627,7 @@ bool MassSpring::stepImplicit(double dt) {
         addTo(&diag, diag_acc_[q][v]);
       }
       const Vec3 bv = held[v] ? Vec3::Zero() : Vec3(dt * b);
+      if (cluster_of[v] >= 0) cluster_diag[v] = diag;  // see factorClusters()
       // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
       if (held[v] || !invert(&diag)) diag = {0, 0, 0, 0, 0, 0};
       const Vec3 rv = held[v] ? Vec3::Zero() : Vec3(bv - a);
@@ -480,6 +654,9 @@ bool MassSpring::stepImplicit(double dt) {
   const double weight2 = partialSum(0) * params_.gravity.squaredNorm();
   const double b_norm = partialSum(1);
   double rz = partialSum(2), rr = partialSum(3);
+  // The clusters' vertices: z (and p) from their clusters' blocks instead of their own.
+  factorClusters();
+  rz += applyClusters(r_.data(), z_.data(), p_.data());
   const double tolerance2 =
       params_.cg_tolerance * params_.cg_tolerance * std::max({b_norm, weight2, 1e-300});
   int it = 0;
@@ -530,7 +707,7 @@ bool MassSpring::stepImplicit(double dt) {
       partial_[part].sum[0] = rz_next;
       partial_[part].sum[1] = rr_next;
     });
-    const double rz_next = partialSum(0);
+    const double rz_next = partialSum(0) + applyClusters(r_.data(), z_.data(), nullptr);
     rr = partialSum(1);
     const double beta = rz_next / rz;
     rz = rz_next;
