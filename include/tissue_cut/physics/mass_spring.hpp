@@ -11,8 +11,6 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Cholesky>
-
 #include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/physics/worker_team.hpp"
 
@@ -135,10 +133,9 @@ class MassSpring {
     int num_springs = 0;
     /// The springs between its vertices: index in springs_, and the two ends' places in vertices.
     std::array<std::array<int, 3>, kMaxCluster*(kMaxCluster - 1) / 2> springs{};
-    using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3 * kMaxCluster,
-                                 3 * kMaxCluster>;
-    Eigen::LLT<Matrix> factor;  // of its block of A, this step
-    bool usable = false;        // factor is of a positive definite block
+    /// The inverse of its block of A this step (3 size x 3 size, row-major, by Cholesky).
+    std::array<double, 9 * kMaxCluster * kMaxCluster> inverse{};
+    bool usable = false;  // the block was positive definite
   };
   /// h^2 k / m of spring a-b (m its lighter end's mass) when that is at least strongThreshold(),
   /// neither end fixed nor dead; 0 otherwise (no such spring included).
@@ -149,7 +146,7 @@ class MassSpring {
   void rescanStrong(double dt);                         // strong_ from every spring
   void updateStrong(const std::vector<int>& vertices);  // strong_ at these vertices again
   void buildClusters();                                 // clusters_ from strong_
-  /// Factors each cluster's block of A from cluster_diag_ and the springs' blocks.
+  /// Inverts each cluster's block of A, from cluster_diag_ and the springs' blocks.
   void factorClusters();
   /// z = the clusters' blocks' inverses times r on the clusters' vertices (also into *p when
   /// given); returns the change this makes to sum r.z.
