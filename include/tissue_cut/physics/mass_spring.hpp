@@ -148,6 +148,7 @@ class MassSpring {
   void buildClusters();                                 // clusters_ from strong_
   /// Inverts each cluster's block of A, from cluster_diag_ and the springs' blocks.
   void factorClusters();
+  void factorCluster(Cluster* cluster);
   /// z = the clusters' blocks' inverses times r on the clusters' vertices (also into *p when
   /// given); returns the change this makes to sum r.z.
   double applyClusters(const Vec3* r, Vec3* z, Vec3* p);

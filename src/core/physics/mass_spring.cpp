@@ -39,39 +39,49 @@ bool invert(Sym* m) {
   return true;
 }
 
-// The inverse of the symmetric positive definite m x m matrix a (row-major, m <= kMax), in place,
-// by Cholesky: A = L L^T, then A^-1 = L^-T L^-1. False (a unchanged past use) when it is not
-// positive definite.
-template <int kMax>
-bool invertPositiveDefinite(double* a, int m) {
-  double l[kMax][kMax] = {}, li[kMax][kMax] = {};
-  for (int j = 0; j < m; ++j) {
-    double d = a[j * m + j];
+// The inverse of the symmetric positive definite M x M matrix a (row-major), in place, by
+// Cholesky: A = L L^T, then A^-1 = L^-T L^-1. False (a unchanged) when it is not positive
+// definite. M is a template argument so that the loops unroll.
+template <int M>
+bool invertPositiveDefinite(double* a) {
+  double l[M][M] = {}, li[M][M] = {};
+  for (int j = 0; j < M; ++j) {
+    double d = a[j * M + j];
     for (int k = 0; k < j; ++k) d -= l[j][k] * l[j][k];
     if (!(d > 0)) return false;
     l[j][j] = std::sqrt(d);
     const double inv = 1.0 / l[j][j];
-    for (int i = j + 1; i < m; ++i) {
-      double s = a[i * m + j];
+    for (int i = j + 1; i < M; ++i) {
+      double s = a[i * M + j];
       for (int k = 0; k < j; ++k) s -= l[i][k] * l[j][k];
       l[i][j] = s * inv;
     }
   }
-  for (int j = 0; j < m; ++j) {  // L^-1, column by column
+  for (int j = 0; j < M; ++j) {  // L^-1, column by column
     li[j][j] = 1.0 / l[j][j];
-    for (int i = j + 1; i < m; ++i) {
+    for (int i = j + 1; i < M; ++i) {
       double s = 0.0;
       for (int k = j; k < i; ++k) s += l[i][k] * li[k][j];
       li[i][j] = -s / l[i][i];
     }
   }
-  for (int i = 0; i < m; ++i)
+  for (int i = 0; i < M; ++i)
     for (int j = 0; j <= i; ++j) {
       double s = 0.0;
-      for (int k = i; k < m; ++k) s += li[k][i] * li[k][j];
-      a[i * m + j] = a[j * m + i] = s;
+      for (int k = i; k < M; ++k) s += li[k][i] * li[k][j];
+      a[i * M + j] = a[j * M + i] = s;
     }
   return true;
+}
+
+// x = a r for the symmetric M x M matrix a (row-major).
+template <int M>
+void multiply(const double* a, const double* r, double* x) {
+  for (int i = 0; i < M; ++i) {
+    double s = 0.0;
+    for (int j = 0; j < M; ++j) s += a[i * M + j] * r[j];
+    x[i] = s;
+  }
 }
 
 }  // namespace
@@ -557,25 +567,35 @@ void MassSpring::buildClusters() {
 }
 
 void MassSpring::factorClusters() {
-  for (Cluster& c : clusters_) {
-    const int m = 3 * c.size;
-    double* a = c.inverse.data();  // the block first, then inverted in place
-    std::fill(a, a + m * m, 0.0);
-    auto put = [&](int i, int j, const Block& k, double sign) {
-      const double e[3][3] = {{k.xx, k.xy, k.xz}, {k.xy, k.yy, k.yz}, {k.xz, k.yz, k.zz}};
-      for (int r = 0; r < 3; ++r)
-        for (int q = 0; q < 3; ++q) a[(3 * i + r) * m + 3 * j + q] = sign * e[r][q];
-    };
-    for (int i = 0; i < c.size; ++i) put(i, i, cluster_diag_[c.vertices[i]], 1.0);
-    for (int s = 0; s < c.num_springs; ++s) {
-      const auto& [spring, i, j] = c.springs[s];
-      put(i, j, blocks_[spring], -1.0);  // A p at a has -h^2 K p_b
-      put(j, i, blocks_[spring], -1.0);
-    }
-    // Inverted once a step: CG applies it 4-10 times, as a plain product (Eigen's Cholesky
-    // solve, its size known only at run time, took 0.2 us a cluster; the product takes 0.05).
-    c.usable = invertPositiveDefinite<3 * kMaxCluster>(a, m);
+  static_assert(kMaxCluster == 4, "invertPositiveDefinite and multiply below take 2 to 4");
+  // The clusters are independent: split over the parts (their inverses do not depend on it).
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(static_cast<int>(clusters_.size()), part);
+    for (int k = begin; k < end; ++k) factorCluster(&clusters_[k]);
+  });
+}
+
+void MassSpring::factorCluster(Cluster* cluster) {
+  Cluster& c = *cluster;
+  const int m = 3 * c.size;
+  double* a = c.inverse.data();  // the block first, then inverted in place
+  std::fill(a, a + m * m, 0.0);
+  auto put = [&](int i, int j, const Block& k, double sign) {
+    const double e[3][3] = {{k.xx, k.xy, k.xz}, {k.xy, k.yy, k.yz}, {k.xz, k.yz, k.zz}};
+    for (int r = 0; r < 3; ++r)
+      for (int q = 0; q < 3; ++q) a[(3 * i + r) * m + 3 * j + q] = sign * e[r][q];
+  };
+  for (int i = 0; i < c.size; ++i) put(i, i, cluster_diag_[c.vertices[i]], 1.0);
+  for (int s = 0; s < c.num_springs; ++s) {
+    const auto& [spring, i, j] = c.springs[s];
+    put(i, j, blocks_[spring], -1.0);  // A p at a has -h^2 K p_b
+    put(j, i, blocks_[spring], -1.0);
   }
+  // Inverted once a step: CG applies it 4-10 times, as a plain product (Eigen's Cholesky
+  // solve, its size known only at run time, took 0.2 us a cluster).
+  c.usable = c.size == 2   ? invertPositiveDefinite<6>(a)
+             : c.size == 3 ? invertPositiveDefinite<9>(a)
+                           : invertPositiveDefinite<12>(a);
 }
 
 double MassSpring::applyClusters(const Vec3* r, Vec3* z, Vec3* p) {
@@ -586,10 +606,14 @@ double MassSpring::applyClusters(const Vec3* r, Vec3* z, Vec3* p) {
     double rhs[3 * kMaxCluster], x[3 * kMaxCluster];
     for (int i = 0; i < c.size; ++i)
       for (int k = 0; k < 3; ++k) rhs[3 * i + k] = r[c.vertices[i]][k];
-    const double* inverse = c.inverse.data();  // symmetric, m x m
-    for (int i = 0; i < m; ++i) x[i] = 0.0;
-    for (int j = 0; j < m; ++j)
-      for (int i = 0; i < m; ++i) x[i] += inverse[j * m + i] * rhs[j];
+    const double* inverse = c.inverse.data();
+    if (m == 6) {
+      multiply<6>(inverse, rhs, x);
+    } else if (m == 9) {
+      multiply<9>(inverse, rhs, x);
+    } else {
+      multiply<12>(inverse, rhs, x);
+    }
     for (int i = 0; i < c.size; ++i) {
       const int v = c.vertices[i];
       const Vec3 zv(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
