@@ -55,6 +55,22 @@ Settled settle(double young, double cell, double dt, double seconds) {
   return {mesh.current(tip).z() - mesh.rest(tip).z(), physics.kineticEnergy()};
 }
 
+// Across the block's top at y = 1.3 mm, 0.4 s: a 6 cm blade severs it.
+ScalpelPath straightSlice() {
+  return ScalpelPath(
+      {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
+       ToolPose{0.4, Vec3(0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()}});
+}
+
+// The same, swerving and twisting halfway.
+ScalpelPath wavySlice() {
+  return ScalpelPath(
+      {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
+       ToolPose{0.2, Vec3(0.0, 0.0043, 0.04),
+                Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Vec3::UnitZ()))},
+       ToolPose{0.4, Vec3(0.07, -0.002, 0.045), Eigen::Quaterniond::Identity()}});
+}
+
 // Ticks 0 .. last_tick at 1 kHz with the blade on the path, then `after` ticks without it;
 // returns the warnings of every tick, joined (empty: none).
 std::string replay(Tissue* tissue, const ScalpelPath& path, double blade_length, int last_tick,
@@ -91,9 +107,7 @@ TEST(Physics, MassIsDensityTimesRestVolumeThroughACut) {
   config.collapse.enabled = false;
   config.cut.blade_length = 0.06;
   Tissue tissue(config, makeBlock());
-  const ScalpelPath path(
-      {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
-       ToolPose{0.4, Vec3(0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()}});
+  const ScalpelPath path = straightSlice();
   replay(&tissue, path, 0.06, 400, 1);
   ASSERT_EQ(tissue.validate(), "");
   const Statistics s = tissue.statistics();
@@ -116,10 +130,7 @@ TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheR
   config.cut.blade_length = 0.06;
   config.physics.enabled = false;
   Tissue tissue(config, makeBlock());
-  const ScalpelPath path(
-      {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
-       ToolPose{0.2, Vec3(0.0, 0.0043, 0.04), Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Vec3::UnitZ()))},
-       ToolPose{0.4, Vec3(0.07, -0.002, 0.045), Eigen::Quaterniond::Identity()}});
+  const ScalpelPath path = wavySlice();
   replay(&tissue, path, 0.06, 400, 200);
   ASSERT_EQ(tissue.validate(), "");
   const Statistics s = tissue.statistics();
@@ -335,9 +346,7 @@ MeshData slicedBlock() {
   config.physics.enabled = false;
   config.cut.blade_length = 0.06;
   Tissue tissue(config, makeBlock());
-  const ScalpelPath path(
-      {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
-       ToolPose{0.4, Vec3(0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()}});
+  const ScalpelPath path = straightSlice();
   replay(&tissue, path, 0.06, 400, 1);
   EXPECT_GT(tissue.statistics().cut.cut_tetrahedra, 50);
   const TetMesh& mesh = tissue.mesh();
@@ -411,10 +420,7 @@ TEST(Physics, ClustersFollowedThroughCutsAndCollapsesAreThoseFoundAfresh) {
   config.collapse.budget_us = 0.0;  // unbounded: the queue is empty at the end
   config.cut.blade_length = 0.06;
   Tissue tissue(config, makeBlock());
-  const ScalpelPath path(
-      {ToolPose{0.0, Vec3(-0.07, 0.0013, 0.045), Eigen::Quaterniond::Identity()},
-       ToolPose{0.2, Vec3(0.0, 0.0043, 0.04), Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Vec3::UnitZ()))},
-       ToolPose{0.4, Vec3(0.07, -0.002, 0.045), Eigen::Quaterniond::Identity()}});
+  const ScalpelPath path = wavySlice();
   EXPECT_EQ(replay(&tissue, path, 0.06, 400, 100), "");
   const Statistics s = tissue.statistics();
   ASSERT_GT(s.cut.cut_tetrahedra, 50);
