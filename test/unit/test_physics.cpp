@@ -84,6 +84,27 @@ std::string replay(Tissue* tissue, const ScalpelPath& path, double blade_length,
   return warnings;
 }
 
+// The mesh's live tets on its vertices' rest positions (slots kept).
+MeshData atRest(const TetMesh& mesh) {
+  MeshData out;
+  out.V.resize(mesh.vertexSlots(), 3);
+  for (int v = 0; v < mesh.vertexSlots(); ++v) out.V.row(v) = mesh.rest(v).transpose();
+  out.T = mesh.liveTets();
+  return out;
+}
+
+// The block cut through once with nothing collapsed (all of the cut's slivers stay), at rest.
+MeshData slicedBlock() {
+  Config config;
+  config.collapse.enabled = false;
+  config.physics.enabled = false;
+  config.cut.blade_length = 0.06;
+  Tissue tissue(config, makeBlock());
+  replay(&tissue, straightSlice(), 0.06, 400, 1);
+  EXPECT_GT(tissue.statistics().cut.cut_tetrahedra, 50);
+  return atRest(tissue.mesh());
+}
+
 }  // namespace
 
 TEST(Physics, CantileverComesToRestAndHalvesItsSagWhenEDoubles) {
@@ -137,9 +158,8 @@ TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheR
   ASSERT_GT(s.cut.cut_tetrahedra, 50);
   ASSERT_GT(s.collapse.collapsed_edges, 10);
   const TetMesh& mesh = tissue.mesh();
-  Eigen::MatrixXd V(mesh.vertexSlots(), 3);
-  for (int v = 0; v < mesh.vertexSlots(); ++v) V.row(v) = mesh.rest(v).transpose();
-  TetMesh fresh(V, mesh.liveTets());
+  const MeshData rest = atRest(mesh);
+  TetMesh fresh(rest.V, rest.T);
   const MassSpring rebuilt(&fresh, tissue.physics().params());
   EXPECT_EQ(tissue.physics().numSprings(), rebuilt.numSprings());
   EXPECT_EQ(rebuilt.numSprings(), static_cast<int>(mesh.edges().size()));
@@ -335,29 +355,6 @@ TEST(Physics, TwoThreadsStepAsOneDoesThroughACut) {
   std::printf("one vs two threads after a cut and 0.2 s of sagging: largest difference %.3g m\n",
               worst);
 }
-
-namespace {
-
-// The block cut through once with nothing collapsed (all of the cut's slivers stay), as a mesh at
-// rest.
-MeshData slicedBlock() {
-  Config config;
-  config.collapse.enabled = false;
-  config.physics.enabled = false;
-  config.cut.blade_length = 0.06;
-  Tissue tissue(config, makeBlock());
-  const ScalpelPath path = straightSlice();
-  replay(&tissue, path, 0.06, 400, 1);
-  EXPECT_GT(tissue.statistics().cut.cut_tetrahedra, 50);
-  const TetMesh& mesh = tissue.mesh();
-  MeshData out;
-  out.V.resize(mesh.vertexSlots(), 3);
-  for (int v = 0; v < mesh.vertexSlots(); ++v) out.V.row(v) = mesh.rest(v).transpose();
-  out.T = mesh.liveTets();
-  return out;
-}
-
-}  // namespace
 
 TEST(Physics, ClusterPreconditionerKeepsTheSolveAsClose) {
   // The sliced block sagging for 0.3 s from rest (E = 20 kPa, as the benchmark organ), with the

@@ -1,5 +1,6 @@
 // MassSpring: lumped masses and edge springs on the live tets, integrated by linearly-implicit
-// backward Euler (matrix-free, block-Jacobi-preconditioned conjugate gradients, warm-started;
+// backward Euler (matrix-free conjugate gradients, preconditioned by 3x3 vertex blocks and by
+// whole blocks of the cut's stiff, light vertex clusters; warm-started;
 // its loops split over MassSpringParams::threads threads) or by semi-implicit Euler. Follows
 // every cut and collapse through TetMesh change records.
 #pragma once

@@ -627,7 +627,8 @@ double MassSpring::applyClusters(const Vec3* r, Vec3* z, Vec3* p) {
 
 bool MassSpring::stepImplicit(double dt) {
   // Linearly-implicit backward Euler: (M (1 + h alpha) + h^2 K) dv = h (f0 + h K v0), solved by
-  // block-Jacobi preconditioned CG. Every loop runs in numThreads() parts: vertex loops over
+  // CG preconditioned by block-Jacobi, with the clusters' whole blocks on their vertices (see
+  // buildClusters()). Every loop runs in numThreads() parts: vertex loops over
   // ranges of vertices, spring loops over ranges of springs, each part summing into its own
   // buffer (the parts' buffers are added in a fixed order, so a step's result does not depend on
   // timing). The vertex loops work through local pointers and copies of the scalars: through the
