@@ -177,8 +177,12 @@ class MassSpring {
   std::vector<int> follow_vertices_;              // follow()'s scratch, kept for its capacity
   std::vector<std::pair<int, int>> follow_edges_;
   // The implicit step's work space, kept between steps so that a tick allocates nothing.
-  std::vector<Block> blocks_;  // per-spring h^2-scaled stiffness blocks of this step
-  std::vector<std::array<int, 2>> ends_;  // springs_' ends, packed for the CG products
+  std::vector<Block> blocks_;  // h^2-scaled stiffness blocks of this step, packed as ends_
+  // The springs with a free end, packed in order within each part's range of springs_ (see
+  // assembleSprings()): their ends and blocks, where each part's ends, and each spring's place.
+  std::vector<std::array<int, 2>> ends_;
+  std::vector<int> packed_end_;  // per part
+  std::vector<int> packed_at_;   // per spring: its index in ends_ and blocks_, -1 when left out
   std::vector<Vec3> b_, r_, z_, p_, ap_, dv_, x0_;
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
   std::vector<unsigned char> held_;  // rows held at zero this step: fixed or dead vertices
