@@ -201,6 +201,8 @@ class MassSpring {
   std::vector<int> cluster_of_;      // per vertex: its cluster's index in clusters_, or -1
   std::vector<Block> cluster_diag_;  // a cluster vertex's own block of A, this step
   std::vector<std::pair<double, std::array<int, 2>>> strong_order_;  // buildClusters()' scratch
+  std::vector<unsigned> neighbour_seen_;  // updateStrong()'s scratch: a vertex's neighbours once
+  unsigned neighbour_stamp_ = 0;
   double loaded_coupling_ = 0.0;  // the loaded mesh's p99 k / lighter mass, per E / density
   bool clusters_stale_ = true;    // strong_ changed since clusters_ were built
   std::unique_ptr<WorkerTeam> team_;  // none: one thread

@@ -515,14 +515,23 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
                                  return changed(e[0]) || changed(e[1]);
                                }),
                 strong_.end());
+  // The rest stays sorted: the springs found again are sorted apart and merged in (these calls
+  // come on the ticks that cut or collapse, the slowest; sorting the whole list and testing each
+  // neighbour once per tet around it had cost up to 0.2 ms there).
+  const auto kept = static_cast<std::ptrdiff_t>(strong_.size());
   for (int v : vertices) {
     if (!mesh_->vertexAlive(v)) continue;
+    nextStamp(&neighbour_seen_, &neighbour_stamp_, mesh_->vertexSlots());
+    neighbour_seen_[v] = neighbour_stamp_;
     for (int t : mesh_->vertexTets(v))
-      for (int u : mesh_->tet(t))
-        if (u != v && strongRatio(u, v, strong_dt_) > 0)
-          strong_.push_back({std::min(u, v), std::max(u, v)});
+      for (int u : mesh_->tet(t)) {
+        if (neighbour_seen_[u] == neighbour_stamp_) continue;
+        neighbour_seen_[u] = neighbour_stamp_;
+        if (strongRatio(u, v, strong_dt_) > 0) strong_.push_back({std::min(u, v), std::max(u, v)});
+      }
   }
-  std::sort(strong_.begin(), strong_.end());
+  std::sort(strong_.begin() + kept, strong_.end());
+  std::inplace_merge(strong_.begin(), strong_.begin() + kept, strong_.end());
   strong_.erase(std::unique(strong_.begin(), strong_.end()), strong_.end());
   clusters_stale_ = true;
 }
