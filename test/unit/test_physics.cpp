@@ -167,6 +167,13 @@ TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheR
     if (!mesh.vertexAlive(v)) continue;
     EXPECT_NEAR(tissue.physics().mass(v), rebuilt.mass(v), 1e-12) << "vertex " << v;
   }
+  // Each spring's stiffness (from the volume of the tets on its edge) as the model built on the
+  // result has it.
+  for (const auto& [a, b] : mesh.edges()) {
+    const double k = rebuilt.stiffness(a, b);
+    ASSERT_GT(k, 0.0) << "edge " << a << "-" << b;
+    EXPECT_NEAR(tissue.physics().stiffness(a, b), k, 1e-12 * k) << "edge " << a << "-" << b;
+  }
 }
 
 TEST(Physics, FreeBodyKeepsItsMomentum) {

@@ -75,6 +75,11 @@ class MassSpring {
   /// Threads the implicit step runs on: params().threads, at most the hardware threads.
   int numThreads() const;
   double mass(int v) const { return mass_[v]; }
+  /// The stiffness of the spring between vertices a and b [N/m]; 0 when there is none.
+  double stiffness(int a, int b) const {
+    const int i = findSpring(a, b);
+    return i < 0 ? 0.0 : springs_[i].stiffness;
+  }
   bool fixed(int v) const { return fixed_[v] != 0; }
   /// Fixes (or frees) vertices by id, on top of the band.
   void setFixed(const std::vector<int>& vertices, bool fixed = true);
