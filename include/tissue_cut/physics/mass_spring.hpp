@@ -96,6 +96,8 @@ class MassSpring {
   void makeTeam();  // team_ for params_.threads
   void updateMass(int v);
   void updateSpring(int a, int b);
+  /// Spring a-b for `volume` of tets on it: added, updated, or removed when there is none.
+  void setSpring(int a, int b, double volume);
   int findSpring(int a, int b) const;  // index in springs_, -1: none
   /// Symmetric 3x3 block (xx, xy, xz, yy, yz, zz); a spring's is kept scaled by h^2.
   struct Block {
@@ -172,15 +174,26 @@ class MassSpring {
   double reference_length_ = 0.0;  // mean rest edge of the mesh at construction [m]
   std::vector<unsigned char> fixed_;
   std::vector<Spring> springs_;
-  // Per vertex, the springs whose first (lower) end it is: finding a spring by its ends costs a
-  // short list, not a hash table (whose growth and misses had cost up to 120 us a tick of
-  // collapses).
-  std::vector<std::vector<int>> springs_from_;
+  // Per vertex, the springs whose first (lower) end it is, with their other ends: finding a
+  // spring by its ends costs a short list, not a hash table (whose growth and misses had cost up
+  // to 120 us a tick of collapses), and no read of the springs themselves (scattered in springs_).
+  struct SpringRef {
+    int other;  // the higher end
+    int index;  // in springs_
+  };
+  std::vector<std::vector<SpringRef>> springs_from_;
   std::vector<Vec3> warm_;                        // last velocity change, per vertex
   std::vector<Vec3> warm_prev_;                   // the one before (warm start by extrapolation)
   std::vector<TetVerts> tet_copy_;                // each live tet's vertices, from the records
+  std::vector<double> tet_volume_;                // each live tet's rest volume, from the records
   std::vector<int> follow_vertices_;              // follow()'s scratch, kept for its capacity
   std::vector<std::pair<int, int>> follow_edges_;
+  std::vector<double> follow_volumes_;
+  std::vector<unsigned> follow_seen_;  // follow()'s stamps: each vertex once
+  unsigned follow_stamp_ = 0;
+  std::vector<int> follow_place_;             // a vertex's place among follow()'s vertices
+  std::vector<unsigned char> follow_matrix_;  // follow()'s edges among them (n x n, upper)
+  static constexpr int kEdgeMatrixMax = 256;  // more vertices: the edges are sorted instead
   // The implicit step's work space, kept between steps so that a tick allocates nothing.
   std::vector<Block> blocks_;  // h^2-scaled stiffness blocks of this step, packed as ends_
   // The springs with a free end, packed in order within each part's range of springs_ (see
@@ -208,6 +221,8 @@ class MassSpring {
   std::vector<std::pair<double, std::array<int, 2>>> strong_order_;  // buildClusters()' scratch
   std::vector<unsigned> neighbour_seen_;  // updateStrong()'s scratch: a vertex's neighbours once
   unsigned neighbour_stamp_ = 0;
+  std::vector<unsigned> changed_seen_;  // updateStrong()'s scratch: the changed vertices
+  unsigned changed_stamp_ = 0;
   double loaded_coupling_ = 0.0;  // the loaded mesh's p99 k / lighter mass, per E / density
   bool clusters_stale_ = true;    // strong_ changed since clusters_ were built
   std::unique_ptr<WorkerTeam> team_;  // none: one thread

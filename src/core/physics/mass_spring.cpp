@@ -91,8 +91,12 @@ MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
   makeTeam();
   resize();
   tet_copy_.assign(mesh_->tetSlots(), {-1, -1, -1, -1});
+  tet_volume_.assign(mesh_->tetSlots(), 0.0);
   for (int t = 0; t < mesh_->tetSlots(); ++t)
-    if (mesh_->tetAlive(t)) tet_copy_[t] = mesh_->tet(t);
+    if (mesh_->tetAlive(t)) {
+      tet_copy_[t] = mesh_->tet(t);
+      tet_volume_[t] = mesh_->restVolume(t);
+    }
   for (int v = 0; v < mesh_->vertexSlots(); ++v)
     if (mesh_->vertexAlive(v)) updateMass(v);
   const auto edges = mesh_->edges();
@@ -164,15 +168,15 @@ void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
 void MassSpring::updateMass(int v) {
   double m = 0.0;
   if (mesh_->vertexAlive(v))
-    for (int t : mesh_->vertexTets(v)) m += params_.density * mesh_->restVolume(t) / 4.0;
+    for (int t : mesh_->vertexTets(v)) m += params_.density * tet_volume_[t] / 4.0;
   mass_[v] = m;
 }
 
 int MassSpring::findSpring(int a, int b) const {
   const int lo = std::min(a, b), hi = std::max(a, b);
   if (lo >= static_cast<int>(springs_from_.size())) return -1;
-  for (int i : springs_from_[lo])
-    if (springs_[i].b == hi) return i;
+  for (const SpringRef& r : springs_from_[lo])
+    if (r.other == hi) return r.index;
   return -1;
 }
 
@@ -181,19 +185,24 @@ void MassSpring::updateSpring(int a, int b) {
   if (mesh_->vertexAlive(a) && mesh_->vertexAlive(b))
     for (int t : mesh_->vertexTets(a)) {  // the tets on ab, as edgeTets() lists them
       const TetVerts& tv = mesh_->tet(t);
-      if (std::find(tv.begin(), tv.end(), b) != tv.end()) volume += mesh_->restVolume(t);
+      if (std::find(tv.begin(), tv.end(), b) != tv.end()) volume += tet_volume_[t];
     }
+  setSpring(a, b, volume);
+}
+
+void MassSpring::setSpring(int a, int b, double volume) {
   const int found = findSpring(a, b);
   if (volume <= 0.0) {
     if (found < 0) return;
     // Swap-remove: the last spring takes the slot (and its place in its first end's list).
     const int last = static_cast<int>(springs_.size()) - 1;
-    std::vector<int>& at = springs_from_[springs_[found].a];
-    at.erase(std::find(at.begin(), at.end(), found));
+    auto at_index = [](int i) { return [i](const SpringRef& r) { return r.index == i; }; };
+    std::vector<SpringRef>& at = springs_from_[springs_[found].a];
+    at.erase(std::find_if(at.begin(), at.end(), at_index(found)));
     if (found != last) {
       springs_[found] = springs_[last];
-      std::vector<int>& moved = springs_from_[springs_[found].a];
-      *std::find(moved.begin(), moved.end(), last) = found;
+      std::vector<SpringRef>& moved = springs_from_[springs_[found].a];
+      std::find_if(moved.begin(), moved.end(), at_index(last))->index = found;
     }
     springs_.pop_back();
     return;
@@ -210,7 +219,7 @@ void MassSpring::updateSpring(int a, int b) {
   const Spring s{std::min(a, b), std::max(a, b), length, k};
   if (found < 0) {
     if (static_cast<int>(springs_from_.size()) <= s.a) springs_from_.resize(s.a + 1);
-    springs_from_[s.a].push_back(static_cast<int>(springs_.size()));
+    springs_from_[s.a].push_back({s.b, static_cast<int>(springs_.size())});
     springs_.push_back(s);
   } else {
     springs_[found] = s;
@@ -221,21 +230,59 @@ void MassSpring::follow(const ChangeRecord& change) {
   resize();
   if (tet_copy_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
     tet_copy_.resize(mesh_->tetSlots(), {-1, -1, -1, -1});
-  // The vertices and edges of the tets that went or came, each once, in increasing order.
+  // The vertices and edges of the tets that went or came, each once, in increasing order. A
+  // tick's record of collapses and smoothing moves lists each edge about ten times (the tets
+  // around it, removed and added again): sorting them all took a third of the follow. The
+  // vertices are taken once each by a stamp and sorted; their edges are marked in a matrix over
+  // their places in that order and read out row by row, sorted as they come.
   std::vector<int>& vertices = follow_vertices_;
   std::vector<std::pair<int, int>>& edges = follow_edges_;
   vertices.clear();
   edges.clear();
-  auto collect = [&](const TetVerts& tv) {
-    for (int v : tv) vertices.push_back(v);
-    for (const auto& e : kTetEdge)
-      edges.emplace_back(std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]]));
+  auto forEachTet = [&](auto&& f) {
+    for (int t : change.removed_tets)
+      if (tet_copy_[t][0] >= 0) f(tet_copy_[t]);
+    for (int t : change.added_tets) f(mesh_->tet(t));
   };
-  for (int t : change.removed_tets)
-    if (tet_copy_[t][0] >= 0) collect(tet_copy_[t]);
-  for (int t : change.added_tets) collect(mesh_->tet(t));
+  nextStamp(&follow_seen_, &follow_stamp_, mesh_->vertexSlots());
+  forEachTet([&](const TetVerts& tv) {
+    for (int v : tv)
+      if (follow_seen_[v] != follow_stamp_) {
+        follow_seen_[v] = follow_stamp_;
+        vertices.push_back(v);
+      }
+  });
+  std::sort(vertices.begin(), vertices.end());
+  const int n = static_cast<int>(vertices.size());
+  if (n <= kEdgeMatrixMax) {
+    if (follow_place_.size() < follow_seen_.size()) follow_place_.resize(follow_seen_.size());
+    for (int i = 0; i < n; ++i) follow_place_[vertices[i]] = i;
+    follow_matrix_.assign(static_cast<std::size_t>(n) * n, 0);
+    forEachTet([&](const TetVerts& tv) {
+      for (const auto& e : kTetEdge) {
+        const int i = follow_place_[tv[e[0]]], j = follow_place_[tv[e[1]]];
+        follow_matrix_[static_cast<std::size_t>(std::min(i, j)) * n + std::max(i, j)] = 1;
+      }
+    });
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j)
+        if (follow_matrix_[static_cast<std::size_t>(i) * n + j])
+          edges.emplace_back(vertices[i], vertices[j]);
+  } else {
+    forEachTet([&](const TetVerts& tv) {
+      for (const auto& e : kTetEdge)
+        edges.emplace_back(std::min(tv[e[0]], tv[e[1]]), std::max(tv[e[0]], tv[e[1]]));
+    });
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  }
+  if (tet_volume_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
+    tet_volume_.resize(mesh_->tetSlots(), 0.0);
   for (int t : change.removed_tets) tet_copy_[t] = {-1, -1, -1, -1};
-  for (int t : change.added_tets) tet_copy_[t] = mesh_->tet(t);
+  for (int t : change.added_tets) {
+    tet_copy_[t] = mesh_->tet(t);
+    tet_volume_[t] = mesh_->restVolume(t);
+  }
   for (int v : change.removed_vertices) {
     mass_[v] = 0.0;
     fixed_[v] = 0;
@@ -251,12 +298,36 @@ void MassSpring::follow(const ChangeRecord& change) {
     warm_[v] = Vec3::Zero();
     warm_prev_[v] = Vec3::Zero();
   }
-  std::sort(vertices.begin(), vertices.end());
-  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  for (int v : vertices) updateMass(v);
-  for (const auto& [a, b] : edges) updateSpring(a, b);
+  // Each vertex's tets once: its mass, and the volume on each changed edge from it to a higher
+  // vertex (every edge's lower end is among `vertices`), summed in the order of its tets, as
+  // updateMass() and updateSpring() sum them (edge by edge, the lower end's tets were read again
+  // for every edge, and each tet's rest volume computed again for every edge and vertex on it).
+  std::vector<double>& volume = follow_volumes_;
+  volume.assign(edges.size(), 0.0);
+  std::size_t first = 0;  // the first of v's edges in `edges`
+  for (int v : vertices) {
+    std::size_t last = first;
+    while (last < edges.size() && edges[last].first == v) ++last;
+    double m = 0.0;
+    if (mesh_->vertexAlive(v))
+      for (int t : mesh_->vertexTets(v)) {
+        const double tet_volume = tet_volume_[t];
+        m += params_.density * tet_volume / 4.0;
+        for (int u : mesh_->tet(t)) {
+          if (u <= v) continue;
+          for (std::size_t e = first; e < last; ++e)
+            if (edges[e].second == u) {
+              volume[e] += tet_volume;
+              break;
+            }
+        }
+      }
+    mass_[v] = m;
+    first = last;
+  }
+  // A dead end has no tets: its springs go (volume 0), as updateSpring() finds.
+  for (std::size_t e = 0; e < edges.size(); ++e)
+    setSpring(edges[e].first, edges[e].second, volume[e]);
   if (strong_dt_ > 0 && !vertices.empty()) updateStrong(vertices);
 }
 
@@ -509,7 +580,9 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
   // A spring's strength changes with its stiffness and its ends' masses: those of the changed
   // tets' edges and vertices, so every spring that can change has an end among `vertices`
   // (sorted). Those are taken out and tested again; the rest stand.
-  auto changed = [&](int v) { return std::binary_search(vertices.begin(), vertices.end(), v); };
+  nextStamp(&changed_seen_, &changed_stamp_, mesh_->vertexSlots());
+  for (int v : vertices) changed_seen_[v] = changed_stamp_;
+  auto changed = [&](int v) { return changed_seen_[v] == changed_stamp_; };
   strong_.erase(std::remove_if(strong_.begin(), strong_.end(),
                                [&](const std::array<int, 2>& e) {
                                  return changed(e[0]) || changed(e[1]);
@@ -517,7 +590,7 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
                 strong_.end());
   // The rest stays sorted: the springs found again are sorted apart and merged in (these calls
   // come on the ticks that cut or collapse, the slowest; sorting the whole list and testing each
-  // neighbour once per tet around it had cost up to 0.2 ms there).
+  // neighbour once per tet around it had made this 64% of follow()'s instructions).
   const auto kept = static_cast<std::ptrdiff_t>(strong_.size());
   for (int v : vertices) {
     if (!mesh_->vertexAlive(v)) continue;
