@@ -176,6 +176,36 @@ TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheR
   }
 }
 
+TEST(Physics, ALiveChangeOfMaterialGivesTheMassesAndSpringsOfAModelBuiltWithIt) {
+  // E and density changed on a running model (reconfigure) after cuts and collapses: every mass
+  // and spring is then what a model built on the result with the new material has.
+  Config config;
+  config.collapse.budget_us = 0.0;
+  config.cut.blade_length = 0.06;
+  config.physics.enabled = false;
+  Tissue tissue(config, makeBlock());
+  replay(&tissue, wavySlice(), 0.06, 400, 200);
+  ASSERT_GT(tissue.statistics().collapse.collapsed_edges, 10);
+  Config changed = tissue.config();
+  changed.physics.young_modulus *= 3.0;
+  changed.physics.density *= 2.0;
+  ASSERT_EQ(tissue.reconfigure(changed), "");
+  const TetMesh& mesh = tissue.mesh();
+  const MeshData rest = atRest(mesh);
+  TetMesh fresh(rest.V, rest.T);
+  const MassSpring rebuilt(&fresh, tissue.physics().params());
+  ASSERT_EQ(rebuilt.params().young_modulus, changed.physics.young_modulus);
+  EXPECT_EQ(tissue.physics().numSprings(), rebuilt.numSprings());
+  for (int v = 0; v < mesh.vertexSlots(); ++v) {
+    if (!mesh.vertexAlive(v)) continue;
+    EXPECT_NEAR(tissue.physics().mass(v), rebuilt.mass(v), 1e-12) << "vertex " << v;
+  }
+  for (const auto& [a, b] : mesh.edges()) {
+    const double k = rebuilt.stiffness(a, b);
+    EXPECT_NEAR(tissue.physics().stiffness(a, b), k, 1e-12 * k) << "edge " << a << "-" << b;
+  }
+}
+
 TEST(Physics, FreeBodyKeepsItsMomentum) {
   const MeshData block = makeBlock();
   TetMesh mesh(block.V, block.T);

@@ -94,8 +94,12 @@ class MassSpring {
   };
   void resize();
   void makeTeam();  // team_ for params_.threads
-  void updateMass(int v);
-  void updateSpring(int a, int b);
+  /// The masses of `vertices` (sorted) and the springs on `edges` (sorted, lower end first, each
+  /// lower end among `vertices`) from the tets now on them: added, updated in place, or removed
+  /// where no tet is left.
+  void updateMassesAndSprings(const std::vector<int>& vertices,
+                              const std::vector<std::pair<int, int>>& edges);
+  std::vector<int> liveVertices() const;  // in increasing order
   /// Spring a-b for `volume` of tets on it: added, updated, or removed when there is none.
   void setSpring(int a, int b, double volume);
   int findSpring(int a, int b) const;  // index in springs_, -1: none
@@ -170,7 +174,7 @@ class MassSpring {
   std::vector<double> mass_;
   std::vector<double> inertia_;  // mass_, floored (see step())
   static constexpr double kMinInertia = 3e-2;
-  static constexpr double kMinStiffness = 1e-3, kMaxStiffness = 20.0;  // see updateSpring()
+  static constexpr double kMinStiffness = 1e-3, kMaxStiffness = 20.0;  // see setSpring()
   double reference_length_ = 0.0;  // mean rest edge of the mesh at construction [m]
   std::vector<unsigned char> fixed_;
   std::vector<Spring> springs_;
@@ -188,7 +192,7 @@ class MassSpring {
   std::vector<double> tet_volume_;                // each live tet's rest volume, from the records
   std::vector<int> follow_vertices_;              // follow()'s scratch, kept for its capacity
   std::vector<std::pair<int, int>> follow_edges_;
-  std::vector<double> follow_volumes_;
+  std::vector<double> edge_volumes_;  // updateMassesAndSprings()' scratch
   std::vector<unsigned> follow_seen_;  // follow()'s stamps: each vertex once
   unsigned follow_stamp_ = 0;
   std::vector<int> follow_place_;             // a vertex's place among follow()'s vertices

@@ -97,13 +97,11 @@ MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
       tet_copy_[t] = mesh_->tet(t);
       tet_volume_[t] = mesh_->restVolume(t);
     }
-  for (int v = 0; v < mesh_->vertexSlots(); ++v)
-    if (mesh_->vertexAlive(v)) updateMass(v);
   const auto edges = mesh_->edges();
   double sum = 0.0;
   for (const auto& [a, b] : edges) sum += (mesh_->rest(a) - mesh_->rest(b)).norm();
   reference_length_ = edges.empty() ? 0.0 : sum / edges.size();
-  for (const auto& [a, b] : edges) updateSpring(a, b);
+  updateMassesAndSprings(liveVertices(), edges);
   // The loaded mesh's 99th percentile of k / (lighter end's mass), per unit of E / density (see
   // strongThreshold()).
   std::vector<double> couplings;
@@ -137,11 +135,20 @@ void MassSpring::setParams(const MassSpringParams& params) {
   params_ = params;
   strong_dt_ = 0.0;  // found again at the next step
   makeTeam();
-  if (mass_changed)
-    for (int v = 0; v < mesh_->vertexSlots(); ++v)
-      if (mesh_->vertexAlive(v)) updateMass(v);
-  if (stiffness_changed)
-    for (const Spring& s : std::vector<Spring>(springs_)) updateSpring(s.a, s.b);
+  if (!mass_changed && !stiffness_changed) return;
+  // Every spring is there already: each is updated in its place.
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(springs_.size());
+  for (const Spring& s : springs_) edges.emplace_back(s.a, s.b);
+  std::sort(edges.begin(), edges.end());
+  updateMassesAndSprings(liveVertices(), edges);
+}
+
+std::vector<int> MassSpring::liveVertices() const {
+  std::vector<int> out;
+  for (int v = 0; v < mesh_->vertexSlots(); ++v)
+    if (mesh_->vertexAlive(v)) out.push_back(v);
+  return out;
 }
 
 void MassSpring::makeTeam() {
@@ -165,29 +172,12 @@ void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
     if (v >= 0 && v < static_cast<int>(fixed_.size())) fixed_[v] = fixed ? 1 : 0;
 }
 
-void MassSpring::updateMass(int v) {
-  double m = 0.0;
-  if (mesh_->vertexAlive(v))
-    for (int t : mesh_->vertexTets(v)) m += params_.density * tet_volume_[t] / 4.0;
-  mass_[v] = m;
-}
-
 int MassSpring::findSpring(int a, int b) const {
   const int lo = std::min(a, b), hi = std::max(a, b);
   if (lo >= static_cast<int>(springs_from_.size())) return -1;
   for (const SpringRef& r : springs_from_[lo])
     if (r.other == hi) return r.index;
   return -1;
-}
-
-void MassSpring::updateSpring(int a, int b) {
-  double volume = 0.0;
-  if (mesh_->vertexAlive(a) && mesh_->vertexAlive(b))
-    for (int t : mesh_->vertexTets(a)) {  // the tets on ab, as edgeTets() lists them
-      const TetVerts& tv = mesh_->tet(t);
-      if (std::find(tv.begin(), tv.end(), b) != tv.end()) volume += tet_volume_[t];
-    }
-  setSpring(a, b, volume);
 }
 
 void MassSpring::setSpring(int a, int b, double volume) {
@@ -224,6 +214,40 @@ void MassSpring::setSpring(int a, int b, double volume) {
   } else {
     springs_[found] = s;
   }
+}
+
+void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
+                                        const std::vector<std::pair<int, int>>& edges) {
+  // Each vertex's tets once: its mass, and the volume of the tets on each of its edges to a higher
+  // vertex, summed in the order of its tets (reading the lower end's tets again for every edge,
+  // and each tet's rest volume again for every edge and vertex on it, had cost follow() more than
+  // its records' work).
+  std::vector<double>& volume = edge_volumes_;
+  volume.assign(edges.size(), 0.0);
+  std::size_t first = 0;  // the first of v's edges in `edges`
+  for (int v : vertices) {
+    std::size_t last = first;
+    while (last < edges.size() && edges[last].first == v) ++last;
+    double m = 0.0;
+    if (mesh_->vertexAlive(v))
+      for (int t : mesh_->vertexTets(v)) {
+        const double tet_volume = tet_volume_[t];
+        m += params_.density * tet_volume / 4.0;
+        for (int u : mesh_->tet(t)) {
+          if (u <= v) continue;
+          for (std::size_t e = first; e < last; ++e)
+            if (edges[e].second == u) {
+              volume[e] += tet_volume;
+              break;
+            }
+        }
+      }
+    mass_[v] = m;
+    first = last;
+  }
+  // A dead end has no tets: its spring goes (volume 0).
+  for (std::size_t e = 0; e < edges.size(); ++e)
+    setSpring(edges[e].first, edges[e].second, volume[e]);
 }
 
 void MassSpring::follow(const ChangeRecord& change) {
@@ -298,36 +322,7 @@ void MassSpring::follow(const ChangeRecord& change) {
     warm_[v] = Vec3::Zero();
     warm_prev_[v] = Vec3::Zero();
   }
-  // Each vertex's tets once: its mass, and the volume on each changed edge from it to a higher
-  // vertex (every edge's lower end is among `vertices`), summed in the order of its tets, as
-  // updateMass() and updateSpring() sum them (edge by edge, the lower end's tets were read again
-  // for every edge, and each tet's rest volume computed again for every edge and vertex on it).
-  std::vector<double>& volume = follow_volumes_;
-  volume.assign(edges.size(), 0.0);
-  std::size_t first = 0;  // the first of v's edges in `edges`
-  for (int v : vertices) {
-    std::size_t last = first;
-    while (last < edges.size() && edges[last].first == v) ++last;
-    double m = 0.0;
-    if (mesh_->vertexAlive(v))
-      for (int t : mesh_->vertexTets(v)) {
-        const double tet_volume = tet_volume_[t];
-        m += params_.density * tet_volume / 4.0;
-        for (int u : mesh_->tet(t)) {
-          if (u <= v) continue;
-          for (std::size_t e = first; e < last; ++e)
-            if (edges[e].second == u) {
-              volume[e] += tet_volume;
-              break;
-            }
-        }
-      }
-    mass_[v] = m;
-    first = last;
-  }
-  // A dead end has no tets: its springs go (volume 0), as updateSpring() finds.
-  for (std::size_t e = 0; e < edges.size(); ++e)
-    setSpring(edges[e].first, edges[e].second, volume[e]);
+  updateMassesAndSprings(vertices, edges);
   if (strong_dt_ > 0 && !vertices.empty()) updateStrong(vertices);
 }
 
