@@ -143,20 +143,20 @@ TEST(Physics, MassIsDensityTimesRestVolumeThroughACut) {
   std::printf("inertia the floor adds after the cut: %.3g of the mass\n", s.physics.inertia_added);
 }
 
-TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheResult) {
-  // Springs come and go with every cut and collapse (a removed one's slot takes the last
-  // spring); what is left must be what a model built on the final mesh has.
+namespace {
+
+// The block cut along the wavy slice: collapse unbounded, no physics (the model only follows).
+Config wavySliceConfig() {
   Config config;
   config.collapse.budget_us = 0.0;
   config.cut.blade_length = 0.06;
   config.physics.enabled = false;
-  Tissue tissue(config, makeBlock());
-  const ScalpelPath path = wavySlice();
-  replay(&tissue, path, 0.06, 400, 200);
-  ASSERT_EQ(tissue.validate(), "");
-  const Statistics s = tissue.statistics();
-  ASSERT_GT(s.cut.cut_tetrahedra, 50);
-  ASSERT_GT(s.collapse.collapsed_edges, 10);
+  return config;
+}
+
+// The tissue's masses, springs and stiffnesses are those of a model built on its mesh at rest
+// with its material.
+void expectModelBuiltOnTheResult(const Tissue& tissue) {
   const TetMesh& mesh = tissue.mesh();
   const MeshData rest = atRest(mesh);
   TetMesh fresh(rest.V, rest.T);
@@ -176,34 +176,33 @@ TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheR
   }
 }
 
+}  // namespace
+
+TEST(Physics, SpringsAndMassesThroughCutsAndCollapsesAreThoseOfAModelBuiltOnTheResult) {
+  // Springs come and go with every cut and collapse (a removed one's slot takes the last
+  // spring); what is left must be what a model built on the final mesh has.
+  Tissue tissue(wavySliceConfig(), makeBlock());
+  replay(&tissue, wavySlice(), 0.06, 400, 200);
+  ASSERT_EQ(tissue.validate(), "");
+  const Statistics s = tissue.statistics();
+  ASSERT_GT(s.cut.cut_tetrahedra, 50);
+  ASSERT_GT(s.collapse.collapsed_edges, 10);
+  expectModelBuiltOnTheResult(tissue);
+}
+
 TEST(Physics, ALiveChangeOfMaterialGivesTheMassesAndSpringsOfAModelBuiltWithIt) {
   // E and density changed on a running model (reconfigure) after cuts and collapses: every mass
   // and spring is then what a model built on the result with the new material has.
-  Config config;
-  config.collapse.budget_us = 0.0;
-  config.cut.blade_length = 0.06;
-  config.physics.enabled = false;
-  Tissue tissue(config, makeBlock());
+  Tissue tissue(wavySliceConfig(), makeBlock());
   replay(&tissue, wavySlice(), 0.06, 400, 200);
   ASSERT_GT(tissue.statistics().collapse.collapsed_edges, 10);
   Config changed = tissue.config();
   changed.physics.young_modulus *= 3.0;
   changed.physics.density *= 2.0;
   ASSERT_EQ(tissue.reconfigure(changed), "");
-  const TetMesh& mesh = tissue.mesh();
-  const MeshData rest = atRest(mesh);
-  TetMesh fresh(rest.V, rest.T);
-  const MassSpring rebuilt(&fresh, tissue.physics().params());
-  ASSERT_EQ(rebuilt.params().young_modulus, changed.physics.young_modulus);
-  EXPECT_EQ(tissue.physics().numSprings(), rebuilt.numSprings());
-  for (int v = 0; v < mesh.vertexSlots(); ++v) {
-    if (!mesh.vertexAlive(v)) continue;
-    EXPECT_NEAR(tissue.physics().mass(v), rebuilt.mass(v), 1e-12) << "vertex " << v;
-  }
-  for (const auto& [a, b] : mesh.edges()) {
-    const double k = rebuilt.stiffness(a, b);
-    EXPECT_NEAR(tissue.physics().stiffness(a, b), k, 1e-12 * k) << "edge " << a << "-" << b;
-  }
+  ASSERT_EQ(tissue.physics().params().young_modulus, changed.physics.young_modulus);
+  ASSERT_EQ(tissue.physics().params().density, changed.physics.density);
+  expectModelBuiltOnTheResult(tissue);
 }
 
 TEST(Physics, FreeBodyKeepsItsMomentum) {
