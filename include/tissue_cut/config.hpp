@@ -54,6 +54,12 @@ struct Config {
     /// Precondition the cut's stiff, light vertex clusters whole (see
     /// MassSpringParams::cluster_preconditioner); false: block-Jacobi alone.
     bool cluster_preconditioner = true;
+    /// Solve where a cut or a collapse just changed the springs first, then CG on the whole
+    /// mesh (see MassSpringParams::local_presolve).
+    bool local_presolve = true;
+    /// Warm start extrapolated quadratically where that guessed the last step closer (see
+    /// MassSpringParams::quadratic_warm_start); false: always linearly.
+    bool quadratic_warm_start = true;
   } physics;
 
   /// The first invalid value as "key: why", or "" when all are usable.

@@ -59,6 +59,10 @@ const std::map<std::string, Setter>& setters() {
       {"physics/threads", [](const YAML::Node& n, Config& c) { c.physics.threads = n.as<int>(); }},
       {"physics/cluster_preconditioner",
        [](const YAML::Node& n, Config& c) { c.physics.cluster_preconditioner = n.as<bool>(); }},
+      {"physics/local_presolve",
+       [](const YAML::Node& n, Config& c) { c.physics.local_presolve = n.as<bool>(); }},
+      {"physics/quadratic_warm_start",
+       [](const YAML::Node& n, Config& c) { c.physics.quadratic_warm_start = n.as<bool>(); }},
   };
   return table;
 }

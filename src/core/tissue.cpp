@@ -41,6 +41,8 @@ MassSpringParams massSpringParams(const Config& config) {
   p.fixed_band = config.physics.fixed_band;
   p.threads = config.physics.threads;
   p.cluster_preconditioner = config.physics.cluster_preconditioner;
+  p.local_presolve = config.physics.local_presolve;
+  p.quadratic_warm_start = config.physics.quadratic_warm_start;
   return p;
 }
 

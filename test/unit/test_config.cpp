@@ -44,6 +44,8 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.physics.fixed_band = 0.5;
   other.physics.threads = 7;
   other.physics.cluster_preconditioner = !d.physics.cluster_preconditioner;
+  other.physics.local_presolve = !d.physics.local_presolve;
+  other.physics.quadratic_warm_start = !d.physics.quadratic_warm_start;
   const Config f =
       loadConfigFile(std::string(TISSUE_CUT_SOURCE_DIR) + "/config/tissue.yaml", other);
   EXPECT_EQ(f.rate, d.rate);
@@ -68,7 +70,9 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.physics.fixed_band, d.physics.fixed_band);
   EXPECT_EQ(f.physics.threads, d.physics.threads);
   EXPECT_EQ(f.physics.cluster_preconditioner, d.physics.cluster_preconditioner);
-  EXPECT_EQ(configKeys().size(), 22u) << "a key was added: extend this test and tissue.yaml";
+  EXPECT_EQ(f.physics.local_presolve, d.physics.local_presolve);
+  EXPECT_EQ(f.physics.quadratic_warm_start, d.physics.quadratic_warm_start);
+  EXPECT_EQ(configKeys().size(), 24u) << "a key was added: extend this test and tissue.yaml";
 }
 
 TEST(Config, PartialFileOverridesOnlyItsKeys) {
@@ -99,6 +103,8 @@ TEST(Config, AbsurdValuesAreNamed) {
       {"physics:\n  threads: 1000\n", "physics/threads"},
       {"physics:\n  threads: 1.5\n", "physics/threads"},
       {"physics:\n  cluster_preconditioner: maybe\n", "physics/cluster_preconditioner"},
+      {"physics:\n  local_presolve: 2\n", "physics/local_presolve"},
+      {"physics:\n  quadratic_warm_start: often\n", "physics/quadratic_warm_start"},
       {"rate: fast\n", "rate"},
   };
   for (const auto& [text, key] : cases) {
