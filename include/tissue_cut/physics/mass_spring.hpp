@@ -67,10 +67,8 @@ class MassSpring {
   double kineticEnergy() const;  ///< [J]
   int instabilities() const { return instabilities_; }
   int lastIterations() const { return last_iterations_; }
-  /// Steps that solved locally before CG (see MassSpringParams::local_presolve), and the local
-  /// solve's iterations in total.
+  /// Steps that solved locally before CG (see MassSpringParams::local_presolve).
   long long localPresolves() const { return local_presolves_; }
-  long long localIterations() const { return local_iterations_; }
   /// Inertia the floor of the last step added (see step()), as a fraction of the total mass.
   double addedInertia() const { return added_inertia_; }
   /// How far the last step moved any vertex [m] (dt times the fastest speed; infinity when it was
@@ -169,6 +167,9 @@ class MassSpring {
   double strongThreshold(double dt) const;
   void rescanStrong(double dt);                         // strong_ from every spring
   void updateStrong(const std::vector<int>& vertices);  // strong_ at these vertices again
+  /// f(u) for each vertex u on a tet of v, other than v, once each.
+  template <class F>
+  void forEachNeighbour(int v, F&& f);
   void buildClusters();                                 // clusters_ from strong_
   /// Inverts each cluster's block of A, from cluster_diag_ and the springs' blocks.
   void factorClusters();
@@ -191,8 +192,8 @@ class MassSpring {
   static constexpr double kLocalGoal = 0.1;     // local residual over the rest's, squared
   static constexpr int kLocalIterations = 40;
   /// Solves locally (see above) when r_ (its sums *rz, *rr) calls for it: dv_, r_, z_ and p_
-  /// changed there, and the sums with them; true when it did.
-  bool presolveLocally(double tolerance2, double* rz, double* rr);
+  /// changed there, and the sums with them.
+  void presolveLocally(double tolerance2, double* rz, double* rr);
   struct LocalSpring {
     int a, b;   // local indices: a among the picked vertices, b picked or a neighbour
     int block;  // in blocks_
@@ -204,7 +205,7 @@ class MassSpring {
   unsigned local_stamp_ = 0;
   std::vector<LocalSpring> local_springs_;
   std::vector<Vec3> local_r_, local_z_, local_p_, local_q_, local_x_;
-  long long local_presolves_ = 0, local_iterations_ = 0;
+  long long local_presolves_ = 0;
   /// The parts' shares of sum k of the last parallel loop, added in part order.
   double partialSum(int k) const;
   bool stepImplicit(double dt);
@@ -266,7 +267,7 @@ class MassSpring {
   std::vector<int> cluster_of_;      // per vertex: its cluster's index in clusters_, or -1
   std::vector<Block> cluster_diag_;  // a cluster vertex's own block of A, this step
   std::vector<std::pair<double, std::array<int, 2>>> strong_order_;  // buildClusters()' scratch
-  std::vector<unsigned> neighbour_seen_;  // updateStrong()'s scratch: a vertex's neighbours once
+  std::vector<unsigned> neighbour_seen_;  // forEachNeighbour()'s stamps: each neighbour once
   unsigned neighbour_stamp_ = 0;
   std::vector<unsigned> changed_seen_;  // updateStrong()'s scratch: the changed vertices
   unsigned changed_stamp_ = 0;

@@ -27,6 +27,13 @@ void addTo(Sym* m, const Sym& k) {
   m->zz += k.zz;
 }
 
+// The warm start's guesses from the last three answers (newest first): the linear extrapolation,
+// and what the quadratic one adds to it.
+inline Vec3 linearGuess(const Vec3& w, const Vec3& w_prev) { return 2.0 * w - w_prev; }
+inline Vec3 curvature(const Vec3& w, const Vec3& w_prev, const Vec3& w_prev2) {
+  return w - 2.0 * w_prev + w_prev2;
+}
+
 // The inverse of a symmetric block by cofactors; false when it is not positive definite.
 template <class Sym>
 bool invert(Sym* m) {
@@ -574,6 +581,18 @@ void MassSpring::rescanStrong(double dt) {
   clusters_stale_ = true;
 }
 
+template <class F>
+void MassSpring::forEachNeighbour(int v, F&& f) {
+  nextStamp(&neighbour_seen_, &neighbour_stamp_, mesh_->vertexSlots());
+  neighbour_seen_[v] = neighbour_stamp_;
+  for (int t : mesh_->vertexTets(v))
+    for (int u : mesh_->tet(t)) {
+      if (neighbour_seen_[u] == neighbour_stamp_) continue;
+      neighbour_seen_[u] = neighbour_stamp_;
+      f(u);
+    }
+}
+
 void MassSpring::updateStrong(const std::vector<int>& vertices) {
   // A spring's strength changes with its stiffness and its ends' masses: those of the changed
   // tets' edges and vertices, so every spring that can change has an end among `vertices`
@@ -592,14 +611,9 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
   const auto kept = static_cast<std::ptrdiff_t>(strong_.size());
   for (int v : vertices) {
     if (!mesh_->vertexAlive(v)) continue;
-    nextStamp(&neighbour_seen_, &neighbour_stamp_, mesh_->vertexSlots());
-    neighbour_seen_[v] = neighbour_stamp_;
-    for (int t : mesh_->vertexTets(v))
-      for (int u : mesh_->tet(t)) {
-        if (neighbour_seen_[u] == neighbour_stamp_) continue;
-        neighbour_seen_[u] = neighbour_stamp_;
-        if (strongRatio(u, v, strong_dt_) > 0) strong_.push_back({std::min(u, v), std::max(u, v)});
-      }
+    forEachNeighbour(v, [&](int u) {
+      if (strongRatio(u, v, strong_dt_) > 0) strong_.push_back({std::min(u, v), std::max(u, v)});
+    });
   }
   std::sort(strong_.begin() + kept, strong_.end());
   std::inplace_merge(strong_.begin(), strong_.begin() + kept, strong_.end());
@@ -726,9 +740,9 @@ double MassSpring::applyClusters(const Vec3* r, Vec3* z, Vec3* p) {
   return change;
 }
 
-bool MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr_total) {
+void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr_total) {
   const double rr = *rr_total;
-  if (!params_.local_presolve || !(rr > kLocalTrigger * tolerance2)) return false;
+  if (!params_.local_presolve || !(rr > kLocalTrigger * tolerance2)) return;
   const int n = mesh_->vertexSlots();
   // The vertices that hold the residual: each at least kLocalPick of it, the kMaxLocal largest.
   auto& pick = local_pick_;
@@ -747,7 +761,7 @@ bool MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   }
   double picked = 0.0;
   for (const auto& e : pick) picked += e.first;
-  if (pick.empty() || picked < kLocalShare * rr) return false;  // spread out: CG's own work
+  if (pick.empty() || picked < kLocalShare * rr) return;  // spread out: CG's own work
   std::sort(pick.begin(), pick.end(),
             [](const auto& x, const auto& y) { return x.second < y.second; });
   // Their springs, each once, and their neighbours.
@@ -764,19 +778,14 @@ bool MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   local_springs_.clear();
   for (int i = 0; i < m; ++i) {
     const int v = local_vertices_[i];
-    nextStamp(&neighbour_seen_, &neighbour_stamp_, n);
-    neighbour_seen_[v] = neighbour_stamp_;
-    for (int t : mesh_->vertexTets(v))
-      for (int u : mesh_->tet(t)) {
-        if (neighbour_seen_[u] == neighbour_stamp_) continue;
-        neighbour_seen_[u] = neighbour_stamp_;
-        const bool known = local_seen_[u] == local_stamp_;
-        if (known && local_index_[u] < m && u < v) continue;  // listed from u
-        const int k = findSpring(std::min(u, v), std::max(u, v));
-        if (k < 0 || packed_at_[k] < 0) continue;
-        if (!known) place(u);
-        local_springs_.push_back({i, local_index_[u], packed_at_[k]});
-      }
+    forEachNeighbour(v, [&](int u) {
+      const bool known = local_seen_[u] == local_stamp_;
+      if (known && local_index_[u] < m && u < v) return;  // listed from u
+      const int k = findSpring(std::min(u, v), std::max(u, v));
+      if (k < 0 || packed_at_[k] < 0) return;
+      if (!known) place(u);
+      local_springs_.push_back({i, local_index_[u], packed_at_[k]});
+    });
   }
   const int total = static_cast<int>(local_vertices_.size());
   // Their terms of r.z and r.r before (z = P r, as the set-up left it).
@@ -847,8 +856,6 @@ bool MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   *rz_total = std::max(0.0, *rz_total + (rz_after - rz_before));
   *rr_total = std::max(0.0, *rr_total + (rr_after - rr_before));
   ++local_presolves_;
-  local_iterations_ += it;
-  return true;
 }
 
 bool MassSpring::stepImplicit(double dt) {
@@ -891,9 +898,9 @@ bool MassSpring::stepImplicit(double dt) {
     const Vec3* warm_prev2 = warm_prev2_.data();
     for (int v = begin; v < end; ++v) {
       held[v] = fixed_[v] || !mesh_->vertexAlive(v);
-      const Vec3 linear = 2.0 * warm[v] - warm_prev[v];
+      const Vec3 linear = linearGuess(warm[v], warm_prev[v]);
       dv[v] = held[v]      ? Vec3::Zero()
-              : quadratic ? Vec3(linear + (warm[v] - 2.0 * warm_prev[v] + warm_prev2[v]))
+              : quadratic ? Vec3(linear + curvature(warm[v], warm_prev[v], warm_prev2[v]))
                           : linear;
     }
   });
@@ -1037,8 +1044,8 @@ bool MassSpring::stepImplicit(double dt) {
         mesh_->velocity(v).setZero();
         continue;
       }
-      const Vec3 linear = 2.0 * warm[v] - warm_prev[v];
-      const Vec3 curve = warm[v] - 2.0 * warm_prev[v] + warm_prev2[v];
+      const Vec3 linear = linearGuess(warm[v], warm_prev[v]);
+      const Vec3 curve = curvature(warm[v], warm_prev[v], warm_prev2[v]);
       linear_miss += (dv_[v] - linear).squaredNorm();
       quadratic_miss += (dv_[v] - linear - curve).squaredNorm();
       mesh_->velocity(v) += dv_[v];
