@@ -27,6 +27,9 @@ struct Config {
   std::string frame_id = "world";       ///< the mesh frame
   std::string mesh;                     ///< mesh file; empty = the built-in block
   std::size_t mesh_max_tets = 2000000;  ///< larger mesh files are refused [count]
+  /// "spatial": a mesh file's vertices and tets renumbered along a space-filling curve for
+  /// memory locality (see spatiallyOrdered()); "file": numbered as in the file.
+  std::string mesh_order = "spatial";
   double block_cell_size = 0.006;       ///< built-in block's cell edge [m]
 
   struct Cut {

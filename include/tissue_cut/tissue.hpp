@@ -17,7 +17,9 @@
 namespace tissue_cut {
 
 /// The mesh the configuration names: config.mesh read from file (limited to
-/// config.mesh_max_tets), or the built-in block. Throws MeshIOError or std::invalid_argument.
+/// config.mesh_max_tets; renumbered by spatiallyOrdered() when config.mesh_order is "spatial"),
+/// or the built-in block (numbered row by row already). Throws MeshIOError or
+/// std::invalid_argument.
 MeshData loadTissueMesh(const Config& config);
 
 /// The physics parameters a configuration gives.

@@ -25,6 +25,7 @@ const std::map<std::string, Setter>& setters() {
        [](const YAML::Node& n, Config& c) { c.mesh = n.IsNull() ? "" : n.as<std::string>(); }},
       {"mesh_max_tets",
        [](const YAML::Node& n, Config& c) { c.mesh_max_tets = n.as<std::size_t>(); }},
+      {"mesh_order", [](const YAML::Node& n, Config& c) { c.mesh_order = n.as<std::string>(); }},
       {"block_cell_size",
        [](const YAML::Node& n, Config& c) { c.block_cell_size = n.as<double>(); }},
       {"cut/blade_length",
@@ -114,6 +115,8 @@ std::string Config::check() const {
     return "publish_rate: must be positive and at most rate";
   if (frame_id.empty()) return "frame_id: must not be empty";
   if (mesh_max_tets == 0) return "mesh_max_tets: must be positive";
+  if (mesh_order != "spatial" && mesh_order != "file")
+    return "mesh_order: must be 'spatial' or 'file'";
   if (!finitePositive(block_cell_size) || block_cell_size < 5e-4)
     return "block_cell_size: must be at least 0.0005 m";
   if (!finitePositive(cut.blade_length) || cut.blade_length > 1.0)

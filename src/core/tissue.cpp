@@ -26,7 +26,8 @@ MeshData loadTissueMesh(const Config& config) {
   }
   MeshReadOptions options;
   options.max_tets = config.mesh_max_tets;
-  return readMesh(config.mesh, options);
+  const MeshData mesh = readMesh(config.mesh, options);
+  return config.mesh_order == "spatial" ? spatiallyOrdered(mesh) : mesh;
 }
 
 MassSpringParams massSpringParams(const Config& config) {
@@ -90,6 +91,7 @@ std::string Tissue::reconfigure(const Config& c) {
   if (!bad.empty()) return bad;
   if (c.mesh != config_.mesh) return "mesh: changes only by loading a mesh";
   if (c.mesh_max_tets != config_.mesh_max_tets) return "mesh_max_tets: cannot change live";
+  if (c.mesh_order != config_.mesh_order) return "mesh_order: changes only by loading a mesh";
   if (c.block_cell_size != config_.block_cell_size) return "block_cell_size: cannot change live";
   if (c.physics.fixed_axis != config_.physics.fixed_axis ||
       c.physics.fixed_side != config_.physics.fixed_side ||

@@ -27,6 +27,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.frame_id = "x";
   other.mesh = "m";
   other.mesh_max_tets = 5;
+  other.mesh_order = "file";
   other.block_cell_size = 0.01;
   other.cut.blade_length = 0.5;
   other.cut.max_jump = 0.5;
@@ -53,6 +54,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.frame_id, d.frame_id);
   EXPECT_EQ(f.mesh, d.mesh);
   EXPECT_EQ(f.mesh_max_tets, d.mesh_max_tets);
+  EXPECT_EQ(f.mesh_order, d.mesh_order);
   EXPECT_EQ(f.block_cell_size, d.block_cell_size);
   EXPECT_EQ(f.cut.blade_length, d.cut.blade_length);
   EXPECT_EQ(f.cut.max_jump, d.cut.max_jump);
@@ -72,7 +74,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.physics.cluster_preconditioner, d.physics.cluster_preconditioner);
   EXPECT_EQ(f.physics.local_presolve, d.physics.local_presolve);
   EXPECT_EQ(f.physics.quadratic_warm_start, d.physics.quadratic_warm_start);
-  EXPECT_EQ(configKeys().size(), 24u) << "a key was added: extend this test and tissue.yaml";
+  EXPECT_EQ(configKeys().size(), 25u) << "a key was added: extend this test and tissue.yaml";
 }
 
 TEST(Config, PartialFileOverridesOnlyItsKeys) {
@@ -105,6 +107,7 @@ TEST(Config, AbsurdValuesAreNamed) {
       {"physics:\n  cluster_preconditioner: maybe\n", "physics/cluster_preconditioner"},
       {"physics:\n  local_presolve: 2\n", "physics/local_presolve"},
       {"physics:\n  quadratic_warm_start: often\n", "physics/quadratic_warm_start"},
+      {"mesh_order: random\n", "mesh_order"},
       {"rate: fast\n", "rate"},
   };
   for (const auto& [text, key] : cases) {

@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <clocale>
 #include <cmath>
 #include <filesystem>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "tissue_cut/mesh/mesh_io.hpp"
+#include "tissue_cut/tissue.hpp"
 
 // Gmsh 4.8 leaks a few objects of its own when it classifies and remeshes an STL surface
 // (discreteFace::_createGeometryFromSTL and friends); they are not ours to fix, and a sanitizer
@@ -227,6 +229,80 @@ TEST(ReadMesh, DropsUnusedVerticesAndKeepsFileOrder) {
     EXPECT_NEAR(totalVolume(mesh), 1.0, 1e-14);
     EXPECT_GT(smallestTetVolume(mesh), 0.0);
   }
+}
+
+// The median of |a - b| over the mesh's edges a-b: how far apart in the arrays neighbours are.
+double medianEdgeGap(const MeshData& mesh) {
+  std::vector<std::pair<int, int>> edges;
+  for (Eigen::Index t = 0; t < mesh.T.rows(); ++t)
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j)
+        edges.emplace_back(std::min(mesh.T(t, i), mesh.T(t, j)),
+                           std::max(mesh.T(t, i), mesh.T(t, j)));
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::vector<int> gaps;
+  for (const auto& [a, b] : edges) gaps.push_back(b - a);
+  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
+  return gaps[gaps.size() / 2];
+}
+
+// Each tet as its corners' coordinates in order, sorted: the mesh whatever its numbering.
+std::vector<std::array<double, 12>> tetsByCoordinates(const MeshData& mesh) {
+  std::vector<std::array<double, 12>> out;
+  for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) {
+    std::array<double, 12> c;
+    for (int i = 0; i < 4; ++i)
+      for (int k = 0; k < 3; ++k) c[3 * i + k] = mesh.V(mesh.T(t, i), k);
+    out.push_back(c);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(SpatialOrder, IsTheSameMeshWithNeighboursCloseInTheArrays) {
+  // TetGen numbers the surface's vertices first and the inside's after.
+  const MeshData file = readMesh(kData + "sphere_tetgen.node");
+  const MeshData ordered = spatiallyOrdered(file);
+  ASSERT_EQ(ordered.V.rows(), file.V.rows());
+  ASSERT_EQ(ordered.T.rows(), file.T.rows());
+  EXPECT_EQ(ordered.reoriented, file.reoriented);
+  // The same tets, corner for corner (so each keeps its orientation and volume), and every
+  // vertex once.
+  EXPECT_EQ(tetsByCoordinates(ordered), tetsByCoordinates(file));
+  std::vector<std::array<double, 3>> a, b;
+  for (Eigen::Index v = 0; v < file.V.rows(); ++v) {
+    a.push_back({file.V(v, 0), file.V(v, 1), file.V(v, 2)});
+    b.push_back({ordered.V(v, 0), ordered.V(v, 1), ordered.V(v, 2)});
+  }
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  EXPECT_EQ(a, b);
+  EXPECT_GT(smallestTetVolume(ordered), 0.0);
+  EXPECT_NEAR(totalVolume(ordered), totalVolume(file), 1e-12 * totalVolume(file));
+  // Neighbours close in the arrays; tets in the order of their lowest vertex.
+  const double before = medianEdgeGap(file), after = medianEdgeGap(ordered);
+  EXPECT_LT(after, 0.2 * before) << "median edge gap " << before << " -> " << after;
+  for (Eigen::Index t = 1; t < ordered.T.rows(); ++t)
+    EXPECT_LE(ordered.T.row(t - 1).minCoeff(), ordered.T.row(t).minCoeff()) << "tet " << t;
+  // Renumbering again changes nothing.
+  const MeshData again = spatiallyOrdered(ordered);
+  EXPECT_EQ(again.V, ordered.V);
+  EXPECT_EQ(again.T, ordered.T);
+}
+
+TEST(SpatialOrder, IsWhatTheTissueLoadsUnlessTheFileOrderIsAskedFor) {
+  Config config;
+  config.mesh = kData + "sphere_tetgen.node";
+  const MeshData file = readMesh(config.mesh);
+  const MeshData spatial = loadTissueMesh(config);
+  EXPECT_EQ(spatial.V, spatiallyOrdered(file).V);
+  EXPECT_EQ(spatial.T, spatiallyOrdered(file).T);
+  EXPECT_NE(spatial.T, file.T);
+  config.mesh_order = "file";
+  const MeshData kept = loadTissueMesh(config);
+  EXPECT_EQ(kept.V, file.V);
+  EXPECT_EQ(kept.T, file.T);
 }
 
 TEST(ReadMesh, FlipsNegativelyOrientedTetsAndCountsThem) {

@@ -45,6 +45,15 @@ struct MeshData {
 /// options.stl_mesh_size.
 MeshData readMesh(const std::string& path, const MeshReadOptions& options = {});
 
+/// The same mesh renumbered for memory locality: vertices in the order of a Morton (Z-order)
+/// curve through their bounding box (21 bits an axis; ties in file order), then tets by their
+/// lowest new vertex id (ties in file order). Each tet keeps its corners' order (orientation and
+/// volume as before). Mesh generators number vertices by how they were made (TetGen: the surface
+/// first, then the inside), so that a vertex's neighbours lie anywhere in the arrays: on the
+/// ~20k-tet organ the median id gap along an edge falls from 1,039 to 13, and the physics step's
+/// and the cutter's loops find their neighbours' data in cache (see README, Performance).
+MeshData spatiallyOrdered(const MeshData& mesh);
+
 /// What writeMesh writes. Optional arrays may be left empty.
 struct MeshWriteData {
   Eigen::MatrixXd V;           ///< #V by 3 current positions [m]

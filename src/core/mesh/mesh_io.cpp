@@ -4,8 +4,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <new>
+#include <utility>
+#include <vector>
 
 #include "io/mesh_formats.hpp"
 
@@ -53,6 +56,58 @@ MeshData readMesh(const std::string& path, const MeshReadOptions& options) {
     // and consistent; still an unreadable file, not a crash.
     mesh_io::throwMeshIOError(name, "", "out of memory while reading");
   }
+}
+
+namespace {
+
+// x's lowest 21 bits spread to every third bit of a 64-bit word.
+std::uint64_t spreadBits(std::uint64_t x) {
+  x &= 0x1fffff;
+  x = (x | x << 32) & 0x1f00000000ffffULL;
+  x = (x | x << 16) & 0x1f0000ff0000ffULL;
+  x = (x | x << 8) & 0x100f00f00f00f00fULL;
+  x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+  x = (x | x << 2) & 0x1249249249249249ULL;
+  return x;
+}
+
+}  // namespace
+
+MeshData spatiallyOrdered(const MeshData& mesh) {
+  const int nv = static_cast<int>(mesh.V.rows()), nt = static_cast<int>(mesh.T.rows());
+  if (nv == 0) return mesh;
+  const Eigen::RowVector3d lo = mesh.V.colwise().minCoeff();
+  const double extent = (mesh.V.colwise().maxCoeff() - lo).maxCoeff();
+  const double scale = extent > 0 ? static_cast<double>((1 << 21) - 1) / extent : 0.0;
+  std::vector<std::pair<std::uint64_t, int>> code(nv);
+  for (int v = 0; v < nv; ++v) {
+    std::uint64_t c = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double q = std::clamp((mesh.V(v, k) - lo[k]) * scale, 0.0, double((1 << 21) - 1));
+      c |= spreadBits(static_cast<std::uint64_t>(q)) << k;
+    }
+    code[v] = {c, v};
+  }
+  std::sort(code.begin(), code.end());
+  MeshData out;
+  out.reoriented = mesh.reoriented;
+  out.V.resize(nv, 3);
+  std::vector<int> new_id(nv);
+  for (int k = 0; k < nv; ++k) {
+    out.V.row(k) = mesh.V.row(code[k].second);
+    new_id[code[k].second] = k;
+  }
+  std::vector<std::pair<int, int>> tet_order(nt);
+  for (int t = 0; t < nt; ++t) {
+    int lowest = nv;
+    for (int c = 0; c < 4; ++c) lowest = std::min(lowest, new_id[mesh.T(t, c)]);
+    tet_order[t] = {lowest, t};
+  }
+  std::sort(tet_order.begin(), tet_order.end());
+  out.T.resize(nt, 4);
+  for (int k = 0; k < nt; ++k)
+    for (int c = 0; c < 4; ++c) out.T(k, c) = new_id[mesh.T(tet_order[k].second, c)];
+  return out;
 }
 
 namespace mesh_io {
