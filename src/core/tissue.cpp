@@ -26,8 +26,9 @@ MeshData loadTissueMesh(const Config& config) {
   }
   MeshReadOptions options;
   options.max_tets = config.mesh_max_tets;
-  const MeshData mesh = readMesh(config.mesh, options);
-  return config.mesh_order == "spatial" ? spatiallyOrdered(mesh) : mesh;
+  MeshData mesh = readMesh(config.mesh, options);
+  if (config.mesh_order == "spatial") return spatiallyOrdered(mesh);
+  return mesh;
 }
 
 MassSpringParams massSpringParams(const Config& config) {

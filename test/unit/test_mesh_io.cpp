@@ -305,6 +305,17 @@ TEST(SpatialOrder, IsWhatTheTissueLoadsUnlessTheFileOrderIsAskedFor) {
   EXPECT_EQ(kept.T, file.T);
 }
 
+TEST(SpatialOrder, ChangesOnlyByLoadingAMesh) {
+  // The running model's numbering stays: a live change is refused by name, the config kept.
+  Config config;
+  config.mesh = kData + "sphere_tetgen.node";
+  Tissue tissue(config, loadTissueMesh(config));
+  Config changed = config;
+  changed.mesh_order = "file";
+  EXPECT_EQ(tissue.reconfigure(changed), "mesh_order: changes only by loading a mesh");
+  EXPECT_EQ(tissue.config().mesh_order, "spatial");
+}
+
 TEST(ReadMesh, FlipsNegativelyOrientedTetsAndCountsThem) {
   for (const char* name : {"cube_flipped.node", "cube_flipped.ele", "cube_flipped.vtk"}) {
     SCOPED_TRACE(name);

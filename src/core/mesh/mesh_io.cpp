@@ -60,6 +60,9 @@ MeshData readMesh(const std::string& path, const MeshReadOptions& options) {
 
 namespace {
 
+// A Morton code's cells along each axis (21 bits: three axes in 63).
+constexpr int kMortonCells = (1 << 21) - 1;
+
 // x's lowest 21 bits spread to every third bit of a 64-bit word.
 std::uint64_t spreadBits(std::uint64_t x) {
   x &= 0x1fffff;
@@ -78,12 +81,12 @@ MeshData spatiallyOrdered(const MeshData& mesh) {
   if (nv == 0) return mesh;
   const Eigen::RowVector3d lo = mesh.V.colwise().minCoeff();
   const double extent = (mesh.V.colwise().maxCoeff() - lo).maxCoeff();
-  const double scale = extent > 0 ? static_cast<double>((1 << 21) - 1) / extent : 0.0;
+  const double scale = extent > 0 ? kMortonCells / extent : 0.0;
   std::vector<std::pair<std::uint64_t, int>> code(nv);
   for (int v = 0; v < nv; ++v) {
     std::uint64_t c = 0;
     for (int k = 0; k < 3; ++k) {
-      const double q = std::clamp((mesh.V(v, k) - lo[k]) * scale, 0.0, double((1 << 21) - 1));
+      const double q = std::clamp((mesh.V(v, k) - lo[k]) * scale, 0.0, double{kMortonCells});
       c |= spreadBits(static_cast<std::uint64_t>(q)) << k;
     }
     code[v] = {c, v};
