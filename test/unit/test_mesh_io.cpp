@@ -260,6 +260,12 @@ std::vector<std::array<double, 12>> tetsByCoordinates(const MeshData& mesh) {
   return out;
 }
 
+// The same vertex and tet arrays, numbering included.
+void expectSameArrays(const MeshData& a, const MeshData& b) {
+  EXPECT_EQ(a.V, b.V);
+  EXPECT_EQ(a.T, b.T);
+}
+
 TEST(SpatialOrder, IsTheSameMeshWithNeighboursCloseInTheArrays) {
   // TetGen numbers the surface's vertices first and the inside's after.
   const MeshData file = readMesh(kData + "sphere_tetgen.node");
@@ -286,9 +292,7 @@ TEST(SpatialOrder, IsTheSameMeshWithNeighboursCloseInTheArrays) {
   for (Eigen::Index t = 1; t < ordered.T.rows(); ++t)
     EXPECT_LE(ordered.T.row(t - 1).minCoeff(), ordered.T.row(t).minCoeff()) << "tet " << t;
   // Renumbering again changes nothing.
-  const MeshData again = spatiallyOrdered(ordered);
-  EXPECT_EQ(again.V, ordered.V);
-  EXPECT_EQ(again.T, ordered.T);
+  expectSameArrays(spatiallyOrdered(ordered), ordered);
 }
 
 TEST(SpatialOrder, IsWhatTheTissueLoadsUnlessTheFileOrderIsAskedFor) {
@@ -296,13 +300,10 @@ TEST(SpatialOrder, IsWhatTheTissueLoadsUnlessTheFileOrderIsAskedFor) {
   config.mesh = kData + "sphere_tetgen.node";
   const MeshData file = readMesh(config.mesh);
   const MeshData spatial = loadTissueMesh(config);
-  EXPECT_EQ(spatial.V, spatiallyOrdered(file).V);
-  EXPECT_EQ(spatial.T, spatiallyOrdered(file).T);
+  expectSameArrays(spatial, spatiallyOrdered(file));
   EXPECT_NE(spatial.T, file.T);
   config.mesh_order = "file";
-  const MeshData kept = loadTissueMesh(config);
-  EXPECT_EQ(kept.V, file.V);
-  EXPECT_EQ(kept.T, file.T);
+  expectSameArrays(loadTissueMesh(config), file);
 }
 
 TEST(SpatialOrder, ChangesOnlyByLoadingAMesh) {
