@@ -47,6 +47,7 @@ struct Statistics {
     int rejected_link = 0, rejected_inversion = 0, rejected_quality = 0, rejected_boundary = 0;
     int smoothed_vertices = 0;  ///< smoothing moves (our extension, see vertex_smoothing.hpp)
     int flips = 0;              ///< 2-3, edge removal and 2-2 flips (our extension, flips.hpp)
+    int deferred_ticks = 0;     ///< ticks whose deadline left the queue no time while it held tets
     double time_ms = 0.0;       ///< t.EC
   } collapse;
   struct {

@@ -2,6 +2,8 @@
 // per tick. The node and cut_replay both drive this class, so both give the same mesh and figures.
 #pragma once
 
+#include <array>
+#include <functional>
 #include <memory>
 #include <optional>
 
@@ -62,11 +64,19 @@ class Tissue {
   /// Current figures; `ticks` holds what the caller recorded in tickTimes().
   Statistics statistics() const;
   TickTimes& tickTimes() { return tick_times_; }
+  /// The clock step() measures the tick's deadline on (see Config::Collapse::deadline), the
+  /// physics step's time and the collapse budget [us, any origin]; null (the default): the
+  /// steady clock. A test gives one that advances a fixed step a reading.
+  void setClock(std::function<double()> now_us);
   /// The live mesh as arrays for writeMesh (current positions, rest, quality, cut_region).
   MeshWriteData exportMesh() const;
 
  private:
   void applyChange(const ChangeRecord& change);
+  // This tick's limit on the collapse queue's work [us] (see Config::Collapse::deadline); -1:
+  // none but its budget.
+  double collapseLimitUs(double tick_start_us) const;
+  double nowUs() const;
 
   Config config_;
   MeshData initial_;
@@ -75,6 +85,15 @@ class Tissue {
   std::unique_ptr<MassSpring> physics_;
   std::unique_ptr<CollapseQueue> collapse_;
   long long busy_epoch_ = -1;  // the cutter's state epoch when the queue last looked at it
+  // The last physics steps' times [us] (a ring) and their kSlowPercent-th percentile, taken every
+  // kSlowEvery steps.
+  static constexpr std::size_t kRecentSteps = 128;
+  static constexpr long long kSlowEvery = 16;
+  static constexpr int kSlowPercent = 75;
+  std::array<double, kRecentSteps> recent_physics_us_{};
+  long long physics_steps_ = 0;
+  double physics_slow_us_ = 0.0;
+  std::function<double()> clock_;  // null: the steady clock
   std::vector<unsigned char> cut_region_;
   TickTimes tick_times_;
   double initial_volume_ = 0.0;

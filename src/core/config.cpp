@@ -36,6 +36,8 @@ const std::map<std::string, Setter>& setters() {
       {"collapse/tau", [](const YAML::Node& n, Config& c) { c.collapse.tau = n.as<double>(); }},
       {"collapse/budget_us",
        [](const YAML::Node& n, Config& c) { c.collapse.budget_us = n.as<double>(); }},
+      {"collapse/deadline",
+       [](const YAML::Node& n, Config& c) { c.collapse.deadline = n.as<double>(); }},
       {"physics/enabled", [](const YAML::Node& n, Config& c) { c.physics.enabled = n.as<bool>(); }},
       {"physics/integrator",
        [](const YAML::Node& n, Config& c) { c.physics.integrator = n.as<std::string>(); }},
@@ -126,6 +128,8 @@ std::string Config::check() const {
     return "collapse/tau: must be in [0, 1]";
   if (!std::isfinite(collapse.budget_us) || collapse.budget_us < 0)
     return "collapse/budget_us: must be 0 (unbounded) or positive";
+  if (!std::isfinite(collapse.deadline) || collapse.deadline < 0 || collapse.deadline > 1)
+    return "collapse/deadline: must be in [0, 1] (a fraction of the tick; 0 = none)";
   if (physics.integrator != "implicit" && physics.integrator != "semi_implicit")
     return "physics/integrator: must be 'implicit' or 'semi_implicit'";
   if (!finitePositive(physics.density)) return "physics/density: must be positive";

@@ -57,6 +57,7 @@ nlohmann::json Statistics::toJson() const {
                    {"pending", collapse.pending},
                    {"smoothed_vertices", collapse.smoothed_vertices},
                    {"flips", collapse.flips},
+                   {"deferred_ticks", collapse.deferred_ticks},
                    {"rejected",
                     {{"link", collapse.rejected_link},
                      {"inversion", collapse.rejected_inversion},

@@ -1,5 +1,7 @@
 #include "tissue_cut/tissue.hpp"
 
+#include <algorithm>
+#include <chrono>
 #include <unordered_map>
 
 #include "tissue_cut/mesh/block.hpp"
@@ -16,6 +18,10 @@ namespace {
 constexpr double kShapeTolerance = 0.08;
 constexpr double kShapeLengthFloor = 1.0;
 constexpr double kVolumeBudget = 5e-4;
+// Under a deadline the queue starts only with this much time left (or its budget, if less): a
+// tet's collapse checks take ~50-100 us, and each tick whose collapses or moves change the
+// springs costs the next physics steps CG iterations.
+constexpr double kMinChunkUs = 100.0;
 }  // namespace
 
 MeshData loadTissueMesh(const Config& config) {
@@ -73,6 +79,7 @@ void Tissue::reset() {
   physics_ = std::make_unique<MassSpring>(&mesh_, massSpringParams(config_));
   collapse_ =
       std::make_unique<CollapseQueue>(&mesh_, config_.collapse.tau, config_.collapse.budget_us);
+  if (clock_) collapse_->setBudgetClock(clock_);
   collapse_->setShapeTolerance(kShapeTolerance, kVolumeBudget * mesh_.restVolume(),
                                kShapeLengthFloor * cutter_->meanEdge());
   // Vertices the physics holds still keep their place.
@@ -83,6 +90,8 @@ void Tissue::reset() {
   collapse_->setFlips(true, [this](int u, int v) { return cutter_->mayJoin(u, v); });
   cut_region_.assign(mesh_.tetSlots(), 0);
   busy_epoch_ = -1;
+  physics_steps_ = 0;
+  physics_slow_us_ = 0.0;
   tick_times_.clear();
   initial_volume_ = mesh_.restVolume();
 }
@@ -122,7 +131,34 @@ void Tissue::applyChange(const ChangeRecord& change) {
   }
 }
 
+double Tissue::nowUs() const {
+  if (clock_) return clock_();
+  return std::chrono::duration<double, std::micro>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+void Tissue::setClock(std::function<double()> now_us) {
+  clock_ = std::move(now_us);
+  collapse_->setBudgetClock(clock_);
+}
+
+double Tissue::collapseLimitUs(double tick_start_us) const {
+  const double deadline = config_.collapse.deadline;
+  if (config_.collapse.budget_us <= 0.0 || deadline <= 0.0) return -1.0;  // the budget alone
+  const double deadline_us = 1e6 * deadline / config_.rate;
+  const double chunk_us = std::min(kMinChunkUs, config_.collapse.budget_us);
+  // The physics step comes after the queue: it is given what its slower steps take (the 75th
+  // percentile of the last 128). A mesh whose physics alone leaves no chunk before the deadline
+  // keeps no tick's pace anyway: a deadline would only starve the queue, which keeps its budget.
+  const double physics_us = config_.physics.enabled ? physics_slow_us_ : 0.0;
+  if (physics_us + chunk_us >= deadline_us) return -1.0;
+  const double left = deadline_us - physics_us - (nowUs() - tick_start_us);
+  return left >= chunk_us ? left : 0.0;
+}
+
 std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
+  const double tick_start = nowUs();
   ChangeRecord change;
   std::string warning;
   if (blade && !(blade->base.allFinite() && blade->tip.allFinite())) {
@@ -138,21 +174,35 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   };
   collapse_->queueFrom(change, created);
   if (config_.collapse.enabled) {
-    ChangeRecord collapsed;
-    // Tets waiting for the cutter are looked at again only when its state changed.
-    const long long epoch = cutter_->stateEpoch();
-    collapse_->process([this](int v) { return cutter_->isBusy(v); }, created, &collapsed,
-                       epoch != busy_epoch_);
-    busy_epoch_ = epoch;
-    if (!collapsed.empty()) {
-      applyChange(collapsed);
-      cutter_->follow(collapsed);
-      physics_->follow(collapsed);
+    const double limit = collapseLimitUs(tick_start);
+    if (limit == 0.0) {
+      collapse_->deferred();
+    } else {
+      ChangeRecord collapsed;
+      // Tets waiting for the cutter are looked at again only when its state changed.
+      const long long epoch = cutter_->stateEpoch();
+      collapse_->process([this](int v) { return cutter_->isBusy(v); }, created, &collapsed,
+                         epoch != busy_epoch_, limit);
+      busy_epoch_ = epoch;
+      if (!collapsed.empty()) {
+        applyChange(collapsed);
+        cutter_->follow(collapsed);
+        physics_->follow(collapsed);
+      }
     }
   }
   if (config_.physics.enabled) {
+    const double physics_start = nowUs();
     const std::string unstable = physics_->step(dt);
     if (!unstable.empty()) warning += (warning.empty() ? "" : "; ") + unstable;
+    recent_physics_us_[physics_steps_++ % kRecentSteps] = nowUs() - physics_start;
+    if (physics_steps_ % kSlowEvery == 0 || physics_steps_ < kSlowEvery) {
+      const auto n = static_cast<std::ptrdiff_t>(std::min<long long>(physics_steps_, kRecentSteps));
+      std::array<double, kRecentSteps> sorted = recent_physics_us_;
+      const auto at = sorted.begin() + n * kSlowPercent / 100;
+      std::nth_element(sorted.begin(), at, sorted.begin() + n);
+      physics_slow_us_ = *at;
+    }
     // The cutter's tet index looks for drift only once the moves could add up to enough.
     cutter_->tissueMoved(physics_->lastMaxDisplacement());
   } else {
@@ -183,6 +233,7 @@ Statistics Tissue::statistics() const {
   s.collapse.rejected_boundary = c.rejected_boundary;
   s.collapse.smoothed_vertices = c.smoothed_vertices;
   s.collapse.flips = c.flips;
+  s.collapse.deferred_ticks = c.deferred_ticks;
   s.collapse.time_ms = c.time_ms;
   s.physics.mass_total = physics_->totalMass();
   s.physics.kinetic_energy = physics_->kineticEnergy();

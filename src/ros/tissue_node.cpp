@@ -61,6 +61,7 @@ void putModelValues(const Config& c, TissueConfig* r) {
   r->collapse_enabled = c.collapse.enabled;
   r->collapse_tau = c.collapse.tau;
   r->collapse_budget_us = c.collapse.budget_us;
+  r->collapse_deadline = c.collapse.deadline;
   r->blade_length = c.cut.blade_length;
   r->physics_enabled = c.physics.enabled;
   r->young_modulus = c.physics.young_modulus;
@@ -74,6 +75,7 @@ Config withReconfigureValues(Config c, const TissueConfig& r) {
   c.collapse.enabled = r.collapse_enabled;
   c.collapse.tau = r.collapse_tau;
   c.collapse.budget_us = r.collapse_budget_us;
+  c.collapse.deadline = r.collapse_deadline;
   c.cut.blade_length = r.blade_length;
   c.physics.enabled = r.physics_enabled;
   c.physics.young_modulus = r.young_modulus;

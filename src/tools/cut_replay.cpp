@@ -154,11 +154,11 @@ void printSummary(const tissue_cut::Statistics& s) {
               s.cut.cut_tetrahedra, s.cut.created_tetrahedra, s.cut.time_ms, s.cut.refused);
   std::printf(
       "collapse    %d edges, %d tets removed, %d pending, %.3f ms; refused: link %d, inversion %d, "
-      "quality %d, boundary %d; %d smoothing moves, %d flips\n",
+      "quality %d, boundary %d; %d smoothing moves, %d flips; %d ticks deferred\n",
       s.collapse.collapsed_edges, s.collapse.removed_tetrahedra, s.collapse.pending,
       s.collapse.time_ms, s.collapse.rejected_link, s.collapse.rejected_inversion,
       s.collapse.rejected_quality, s.collapse.rejected_boundary, s.collapse.smoothed_vertices,
-      s.collapse.flips);
+      s.collapse.flips, s.collapse.deferred_ticks);
   std::printf("region      %d tets, quality mean %.4f, min %.4f, %d below tau\n",
               s.region.tetrahedra, s.region.quality_mean, s.region.quality_min, s.region.below_tau);
   std::printf("physics     mass %.6g kg, kinetic energy %.3g J, %d instabilities\n",

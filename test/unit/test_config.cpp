@@ -34,6 +34,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.collapse.enabled = !d.collapse.enabled;
   other.collapse.tau = 0.9;
   other.collapse.budget_us = 7;
+  other.collapse.deadline = 0.25;
   other.physics.enabled = !d.physics.enabled;
   other.physics.integrator = "semi_implicit";
   other.physics.density = 1;
@@ -61,6 +62,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.collapse.enabled, d.collapse.enabled);
   EXPECT_EQ(f.collapse.tau, d.collapse.tau);
   EXPECT_EQ(f.collapse.budget_us, d.collapse.budget_us);
+  EXPECT_EQ(f.collapse.deadline, d.collapse.deadline);
   EXPECT_EQ(f.physics.enabled, d.physics.enabled);
   EXPECT_EQ(f.physics.integrator, d.physics.integrator);
   EXPECT_EQ(f.physics.density, d.physics.density);
@@ -74,7 +76,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.physics.cluster_preconditioner, d.physics.cluster_preconditioner);
   EXPECT_EQ(f.physics.local_presolve, d.physics.local_presolve);
   EXPECT_EQ(f.physics.quadratic_warm_start, d.physics.quadratic_warm_start);
-  EXPECT_EQ(configKeys().size(), 25u) << "a key was added: extend this test and tissue.yaml";
+  EXPECT_EQ(configKeys().size(), 26u) << "a key was added: extend this test and tissue.yaml";
 }
 
 TEST(Config, PartialFileOverridesOnlyItsKeys) {
@@ -98,6 +100,8 @@ TEST(Config, AbsurdValuesAreNamed) {
       {"rate: 0\n", "rate"},
       {"cut:\n  blade_length: -1\n", "cut/blade_length"},
       {"collapse:\n  tau: 2\n", "collapse/tau"},
+      {"collapse:\n  deadline: 1.5\n", "collapse/deadline"},
+      {"collapse:\n  deadline: -0.1\n", "collapse/deadline"},
       {"physics:\n  integrator: rk4\n", "physics/integrator"},
       {"physics:\n  density: .nan\n", "physics/density"},
       {"physics:\n  gravity: [0, 1]\n", "physics/gravity"},

@@ -27,6 +27,7 @@ struct CollapseCounts {
   int smoothed_vertices = 0;  ///< accepted smoothing moves
   int flips = 0;              ///< accepted flips (2-3, edge removal, 2-2)
   int stopped = 0;            ///< tets whose work stopped at the budget (finished later)
+  int deferred_ticks = 0;     ///< ticks with tets queued that the tick's deadline left no time
   double time_ms = 0.0;       ///< t.EC
 };
 
@@ -43,8 +44,15 @@ class CollapseQueue {
   /// tet still being cut): tets holding them wait. Tets `created_by_cut` around a collapsed or
   /// moved vertex are queued again. Appends the changes to `change`. `busy_changed` false says
   /// that busy() answers as on the last call: the tets that waited then are not looked at again.
+  /// `limit_us` >= 0 caps this call's work below its budget, hard: no tet starts once it is
+  /// spent, and the first tet stops between its steps too (0: no work at all this call).
   void process(const std::function<bool(int)>& busy, const std::function<bool(int)>& created_by_cut,
-               ChangeRecord* change, bool busy_changed = true);
+               ChangeRecord* change, bool busy_changed = true, double limit_us = -1.0);
+
+  /// Counts a tick that gave the queue no time (see Config::Collapse::deadline), if it held tets.
+  void deferred() {
+    if (pending() > 0) ++counts_.deferred_ticks;
+  }
 
   /// Queued tets, those waiting for a busy neighbourhood included (some may have gone stale).
   int pending() const {
@@ -84,11 +92,14 @@ class CollapseQueue {
   void clear();
 
  private:
+  // A tet's work, in order: its collapses, its flips, then its vertices' smoothing.
+  static constexpr int kCollapsePhase = 0, kFlipPhase = 1, kSmoothingPhase = 2;
   struct Entry {
     double quality;
     int tet;
     TetVerts verts;   // the tet when queued (its slot may be reused)
     long long stamp;  // the sum of its vertices' stamps when queued
+    int phase = kCollapsePhase;  // where a tet stopped at the budget resumes
     bool operator<(const Entry& o) const { return quality > o.quality; }  // min-heap
   };
   void queueTet(int t);

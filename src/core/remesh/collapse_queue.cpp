@@ -336,7 +336,7 @@ void CollapseQueue::queueFrom(const ChangeRecord& change,
 
 void CollapseQueue::process(const std::function<bool(int)>& busy,
                             const std::function<bool(int)>& created_by_cut, ChangeRecord* change,
-                            bool busy_changed) {
+                            bool busy_changed, double limit_us) {
   const auto start = std::chrono::steady_clock::now();
   // Tets waiting for a busy neighbourhood stay aside while busy() answers as before: they would
   // only wait again (a tet a collapse changed since is queued anew by touched()).
@@ -353,8 +353,10 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   // At least one tet worked a tick, so that a small budget still makes progress; stale and busy
   // entries cost next to nothing and do not count.
   bool attempted = false;
+  const bool limited = limit_us >= 0.0;
   while ((resume_ || !heap_.empty()) &&
-         (!attempted || budget_us_ <= 0 || spent_us() < budget_us_)) {
+         (!attempted || budget_us_ <= 0 || spent_us() < budget_us_) &&
+         (!limited || spent_us() < limit_us)) {
     const Entry e = resume_ ? *resume_ : heap_.top();
     if (resume_) {
       resume_.reset();
@@ -377,15 +379,30 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     attempted = true;
     // A tet's work (six edges both ways, flips, smoothing up to four vertices at ~0.1 ms each)
     // can take longer than the budget. Past it, a tet other than the tick's first stops between
-    // steps and is the next call's first (the refusals it met are remembered).
-    auto over = [&] { return !first && budget_us_ > 0 && spent_us() >= budget_us_; };
-    if (collapseBest(e.verts, created_by_cut, change)) continue;
-    bool stopped = flips_ && over();
-    if (!stopped && flips_ && flipBest(e.tet, busy, created_by_cut, change)) continue;
-    if (!stopped && smoothing_) smoothAny(e.verts, created_by_cut, change, over, &stopped);
+    // steps and is the next call's first, resumed at the step where it stopped (the steps before
+    // had failed and would fail again: the refusals they met are remembered, and nothing around
+    // the tet changed, or it would have been queued anew). Past the call's limit the first tet
+    // stops too; a resumed tet always takes its next step, so every call makes progress.
+    auto over = [&] {
+      return (!first && budget_us_ > 0 && spent_us() >= budget_us_) ||
+             (limited && spent_us() >= limit_us);
+    };
+    if (e.phase == kCollapsePhase && collapseBest(e.verts, created_by_cut, change)) continue;
+    int phase = kFlipPhase;
+    bool stopped = e.phase < kFlipPhase && flips_ && over();
+    if (!stopped && flips_ && e.phase <= kFlipPhase &&
+        flipBest(e.tet, busy, created_by_cut, change))
+      continue;
+    if (!stopped && smoothing_) {
+      phase = kSmoothingPhase;
+      bool free_step = e.phase == kSmoothingPhase;
+      auto stop = [&] { return free_step ? (free_step = false) : over(); };
+      smoothAny(e.verts, created_by_cut, change, stop, &stopped);
+    }
     if (stopped) {
       ++counts_.stopped;
       resume_ = e;
+      resume_->phase = phase;
       queued_[e.tet].second = e.stamp;
       break;
     }
