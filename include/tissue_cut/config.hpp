@@ -41,11 +41,12 @@ struct Config {
     bool enabled = true;
     double tau = 0.6;          ///< created tets with Q below it queue their edges and vertices
     double budget_us = 300.0;  ///< collapse work per tick [us]; 0 = unbounded
-    /// The tick's deadline, a fraction of its period (1 / rate): the queue stops where the tick,
-    /// with its physics step still to come (taken as long as the 75th percentile of the last
-    /// 128), would pass it, or at its budget, whichever comes first, and starts only with 100 us
-    /// left: collapses wait for ticks with time to spare. 0: the budget alone. Not applied while
-    /// budget_us is 0 (unbounded), nor where the physics step alone leaves no 100 us.
+    /// The tick's deadline, a fraction of its period (1 / rate): the queue works after the
+    /// physics step, starts only with 100 us left before the deadline and stops there or at its
+    /// budget, whichever comes first: collapses wait for ticks with time to spare. 0: the budget
+    /// alone, before the physics step. Not applied (budget alone, before the physics) while
+    /// budget_us is 0 (unbounded), nor where the physics step (the 75th percentile of its last
+    /// 128) leaves no 100 us.
     double deadline = 0.9;
   } collapse;
 

@@ -73,9 +73,14 @@ class Tissue {
 
  private:
   void applyChange(const ChangeRecord& change);
-  // This tick's limit on the collapse queue's work [us] (see Config::Collapse::deadline); -1:
-  // none but its budget.
-  double collapseLimitUs(double tick_start_us) const;
+  bool createdByCut(int t) const {
+    return t < static_cast<int>(cut_region_.size()) && cut_region_[t];
+  }
+  // Whether this tick's collapse queue keeps the tick's deadline (Config::Collapse::deadline).
+  bool keepsDeadline() const;
+  // Works the collapse queue, within `limit_us` [us] (-1: its budget alone), and follows its
+  // changes.
+  void workCollapseQueue(double limit_us);
   double nowUs() const;
 
   Config config_;

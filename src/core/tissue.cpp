@@ -143,18 +143,29 @@ void Tissue::setClock(std::function<double()> now_us) {
   collapse_->setBudgetClock(clock_);
 }
 
-double Tissue::collapseLimitUs(double tick_start_us) const {
-  const double deadline = config_.collapse.deadline;
-  if (config_.collapse.budget_us <= 0.0 || deadline <= 0.0) return -1.0;  // the budget alone
-  const double deadline_us = 1e6 * deadline / config_.rate;
-  const double chunk_us = std::min(kMinChunkUs, config_.collapse.budget_us);
-  // The physics step comes after the queue: it is given what its slower steps take (the 75th
-  // percentile of the last 128). A mesh whose physics alone leaves no chunk before the deadline
-  // keeps no tick's pace anyway: a deadline would only starve the queue, which keeps its budget.
+bool Tissue::keepsDeadline() const {
+  if (config_.collapse.budget_us <= 0.0 || config_.collapse.deadline <= 0.0) return false;
+  // A mesh whose physics step alone, as its slower steps take (the 75th percentile of the last
+  // 128), leaves no chunk before the deadline keeps no tick's pace anyway: a deadline would only
+  // starve the queue.
   const double physics_us = config_.physics.enabled ? physics_slow_us_ : 0.0;
-  if (physics_us + chunk_us >= deadline_us) return -1.0;
-  const double left = deadline_us - physics_us - (nowUs() - tick_start_us);
-  return left >= chunk_us ? left : 0.0;
+  return physics_us + std::min(kMinChunkUs, config_.collapse.budget_us) <
+         1e6 * config_.collapse.deadline / config_.rate;
+}
+
+void Tissue::workCollapseQueue(double limit_us) {
+  ChangeRecord collapsed;
+  // Tets waiting for the cutter are looked at again only when its state changed.
+  const long long epoch = cutter_->stateEpoch();
+  collapse_->process([this](int v) { return cutter_->isBusy(v); },
+                     [this](int t) { return createdByCut(t); }, &collapsed, epoch != busy_epoch_,
+                     limit_us);
+  busy_epoch_ = epoch;
+  if (!collapsed.empty()) {
+    applyChange(collapsed);
+    cutter_->follow(collapsed);
+    physics_->follow(collapsed);
+  }
 }
 
 std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
@@ -169,28 +180,12 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   }
   applyChange(change);
   physics_->follow(change);
-  auto created = [this](int t) {
-    return t < static_cast<int>(cut_region_.size()) && cut_region_[t];
-  };
-  collapse_->queueFrom(change, created);
-  if (config_.collapse.enabled) {
-    const double limit = collapseLimitUs(tick_start);
-    if (limit == 0.0) {
-      collapse_->deferred();
-    } else {
-      ChangeRecord collapsed;
-      // Tets waiting for the cutter are looked at again only when its state changed.
-      const long long epoch = cutter_->stateEpoch();
-      collapse_->process([this](int v) { return cutter_->isBusy(v); }, created, &collapsed,
-                         epoch != busy_epoch_, limit);
-      busy_epoch_ = epoch;
-      if (!collapsed.empty()) {
-        applyChange(collapsed);
-        cutter_->follow(collapsed);
-        physics_->follow(collapsed);
-      }
-    }
-  }
+  collapse_->queueFrom(change, [this](int t) { return createdByCut(t); });
+  // Under a deadline the queue works after the physics step, in the time the tick has left
+  // (measured: the physics step's own time varies with the changes it follows); without one,
+  // before it, within its budget alone, as the deterministic replays (budget 0) always do.
+  const bool deadline = config_.collapse.enabled && keepsDeadline();
+  if (config_.collapse.enabled && !deadline) workCollapseQueue(-1.0);
   if (config_.physics.enabled) {
     const double physics_start = nowUs();
     const std::string unstable = physics_->step(dt);
@@ -207,6 +202,15 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
     cutter_->tissueMoved(physics_->lastMaxDisplacement());
   } else {
     cutter_->tissueMoved(0.0);
+  }
+  if (deadline) {
+    const double left =
+        1e6 * config_.collapse.deadline / config_.rate - (nowUs() - tick_start);
+    if (left >= std::min(kMinChunkUs, config_.collapse.budget_us)) {
+      workCollapseQueue(left);
+    } else {
+      collapse_->deferred();
+    }
   }
   return warning;
 }

@@ -229,8 +229,8 @@ namespace {
 
 // The block cut straight through with physics on (no gravity: it stays where it is) and the
 // default budget, the tissue's clock advancing `step_us` a reading: a tick reads it at its start,
-// at the deadline's check (step_us into the tick) and around the physics step (which so takes
-// step_us), and the queue's work is measured on it too.
+// around the physics step (which so takes step_us) and at the deadline's check after it (3 x
+// step_us into the tick), and the queue's work is measured on it too.
 Statistics cutOnAClock(double deadline, double step_us) {
   Config c = withCollapse(true, 0.06, 300.0);
   c.physics.enabled = true;
@@ -249,25 +249,25 @@ int work(const Statistics& s) {
 
 }  // namespace
 
-// collapse/deadline: the queue works only while the tick, its physics step still to come, stays
-// within its deadline (0.9 of the 1 ms period), and starts only with 100 us left; unless the
-// physics alone leaves no 100 us.
+// collapse/deadline: the queue works after the physics step, only while the tick is within its
+// deadline (0.9 of the 1 ms period), and starts only with 100 us left; unless the physics alone
+// (the 75th percentile of its last steps) leaves no 100 us.
 TEST(Collapse, TheTicksDeadlineLeavesTheQueueOnlyTheTimeTheTickHasLeft) {
-  // 500 us a reading: the check comes 0.5 ms into the tick and the physics will take 0.5 ms,
-  // past the deadline: no work, every tick with tets queued counted as deferred.
-  const Statistics late = cutOnAClock(0.9, 500.0);
+  // 400 us a reading: the check comes 1.2 ms into the tick, past its deadline: no work, every
+  // tick with tets queued counted as deferred.
+  const Statistics late = cutOnAClock(0.9, 400.0);
   EXPECT_EQ(work(late), 0);
   EXPECT_GT(late.collapse.pending, 0);
   EXPECT_GT(late.collapse.deferred_ticks, 100);
   // The same ticks without a deadline: the budget alone (one tet a tick, the budget's first).
-  const Statistics budget = cutOnAClock(0.0, 500.0);
+  const Statistics budget = cutOnAClock(0.0, 400.0);
   EXPECT_GT(budget.collapse.collapsed_edges, 10);
   EXPECT_EQ(budget.collapse.deferred_ticks, 0);
   // A physics step of 0.8 ms leaves no 100 us before the deadline: it does not apply.
   const Statistics slow = cutOnAClock(0.9, 800.0);
   EXPECT_GT(slow.collapse.collapsed_edges, 10);
   EXPECT_EQ(slow.collapse.deferred_ticks, 0);
-  // 50 us a reading: 0.8 ms left at the check, more than the budget.
+  // 50 us a reading: 0.75 ms left at the check, more than the budget.
   const Statistics spare = cutOnAClock(0.9, 50.0);
   EXPECT_GT(spare.collapse.collapsed_edges, 10);
   EXPECT_EQ(spare.collapse.deferred_ticks, 0);
