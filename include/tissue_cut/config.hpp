@@ -43,10 +43,10 @@ struct Config {
     double budget_us = 300.0;  ///< collapse work per tick [us]; 0 = unbounded
     /// The tick's deadline, a fraction of its period (1 / rate): the queue works after the
     /// physics step, starts only with 100 us left before the deadline and stops there or at its
-    /// budget, whichever comes first: collapses wait for ticks with time to spare. 0: the budget
-    /// alone, before the physics step. Not applied (budget alone, before the physics) while
-    /// budget_us is 0 (unbounded), nor where the physics step (the 75th percentile of its last
-    /// 128) leaves no 100 us.
+    /// budget, whichever comes first: collapses wait for ticks with time to spare. Where the
+    /// physics step (the 75th percentile of its last 128) leaves no 100 us, the queue gets 100 us
+    /// of budget a tick; where it takes the whole period, its budget. 0: the budget alone, before
+    /// the physics step, as also while budget_us is 0 (unbounded).
     double deadline = 0.9;
   } collapse;
 

@@ -76,11 +76,14 @@ class Tissue {
   bool createdByCut(int t) const {
     return t < static_cast<int>(cut_region_.size()) && cut_region_[t];
   }
-  // Whether this tick's collapse queue keeps the tick's deadline (Config::Collapse::deadline).
+  // Whether the collapse queue keeps the tick's deadline (Config::Collapse::deadline).
   bool keepsDeadline() const;
-  // Works the collapse queue, within `limit_us` [us] (-1: its budget alone), and follows its
-  // changes.
-  void workCollapseQueue(double limit_us);
+  // After the physics step: the collapse queue within the time the tick has left (see
+  // Config::Collapse::deadline).
+  void workCollapseQueueByDeadline(double tick_start_us);
+  // Works the collapse queue, within `limit_us` [us] (-1: none) and `budget_us` (0: its own),
+  // and follows its changes.
+  void workCollapseQueue(double limit_us, double budget_us = 0.0);
   double nowUs() const;
 
   Config config_;

@@ -144,22 +144,39 @@ void Tissue::setClock(std::function<double()> now_us) {
 }
 
 bool Tissue::keepsDeadline() const {
-  if (config_.collapse.budget_us <= 0.0 || config_.collapse.deadline <= 0.0) return false;
-  // A mesh whose physics step alone, as its slower steps take (the 75th percentile of the last
-  // 128), leaves no chunk before the deadline keeps no tick's pace anyway: a deadline would only
-  // starve the queue.
-  const double physics_us = config_.physics.enabled ? physics_slow_us_ : 0.0;
-  return physics_us + std::min(kMinChunkUs, config_.collapse.budget_us) <
-         1e6 * config_.collapse.deadline / config_.rate;
+  return config_.collapse.enabled && config_.collapse.budget_us > 0.0 &&
+         config_.collapse.deadline > 0.0;
 }
 
-void Tissue::workCollapseQueue(double limit_us) {
+void Tissue::workCollapseQueueByDeadline(double tick_start_us) {
+  const double deadline_us = 1e6 * config_.collapse.deadline / config_.rate;
+  const double left = deadline_us - (nowUs() - tick_start_us);
+  const double chunk = std::min(kMinChunkUs, config_.collapse.budget_us);
+  if (left >= chunk) {
+    workCollapseQueue(left);
+    return;
+  }
+  // Where the physics step alone, as its slower steps take (the 75th percentile of the last
+  // 128), leaves no chunk before the deadline, waiting for a tick with time to spare would starve
+  // the queue: it gets a chunk of budget a tick (its first tet worked whole, as under any
+  // budget), or its whole budget where the physics alone takes the period (no tick keeps pace).
+  const double physics_us = config_.physics.enabled ? physics_slow_us_ : 0.0;
+  if (physics_us * config_.rate >= 1e6) {
+    workCollapseQueue(-1.0);
+  } else if (physics_us + chunk >= deadline_us) {
+    workCollapseQueue(-1.0, chunk);
+  } else {
+    collapse_->deferred();
+  }
+}
+
+void Tissue::workCollapseQueue(double limit_us, double budget_us) {
   ChangeRecord collapsed;
   // Tets waiting for the cutter are looked at again only when its state changed.
   const long long epoch = cutter_->stateEpoch();
   collapse_->process([this](int v) { return cutter_->isBusy(v); },
                      [this](int t) { return createdByCut(t); }, &collapsed, epoch != busy_epoch_,
-                     limit_us);
+                     limit_us, budget_us);
   busy_epoch_ = epoch;
   if (!collapsed.empty()) {
     applyChange(collapsed);
@@ -184,7 +201,7 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   // Under a deadline the queue works after the physics step, in the time the tick has left
   // (measured: the physics step's own time varies with the changes it follows); without one,
   // before it, within its budget alone, as the deterministic replays (budget 0) always do.
-  const bool deadline = config_.collapse.enabled && keepsDeadline();
+  const bool deadline = keepsDeadline();
   if (config_.collapse.enabled && !deadline) workCollapseQueue(-1.0);
   if (config_.physics.enabled) {
     const double physics_start = nowUs();
@@ -203,15 +220,7 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   } else {
     cutter_->tissueMoved(0.0);
   }
-  if (deadline) {
-    const double left =
-        1e6 * config_.collapse.deadline / config_.rate - (nowUs() - tick_start);
-    if (left >= std::min(kMinChunkUs, config_.collapse.budget_us)) {
-      workCollapseQueue(left);
-    } else {
-      collapse_->deferred();
-    }
-  }
+  if (deadline) workCollapseQueueByDeadline(tick_start);
   return warning;
 }
 

@@ -151,10 +151,12 @@ TEST(Collapse, WaitingTetsWakeWhenTheBusyStateChanges) {
 namespace {
 
 // Every tet of a cut block queued as if the cut had just made it, worked off at once and in
-// calls of process() with `budget_us` and a limit of `limit_us` a call (-1: none), the budget
+// calls of process() with `budget_us` (or `call_budget_us` given to each call, if positive) and a
+// limit of `limit_us` a call (-1: none), the budget
 // measured on a clock that advances 10 us a reading, so that it ends inside tets' work at known
 // places: both must end with the same mesh. The ticked queue's counts.
-CollapseCounts workedOffAtOnceAndInTicks(double budget_us, double limit_us) {
+CollapseCounts workedOffAtOnceAndInTicks(double budget_us, double limit_us,
+                                         double call_budget_us = 0.0) {
   const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
   Tissue tissue(withCollapse(false, 0.06), makeBlock());
   EXPECT_EQ(replay(tissue, path), "");
@@ -179,7 +181,7 @@ CollapseCounts workedOffAtOnceAndInTicks(double budget_us, double limit_us) {
   int calls = 0;
   for (; calls < 100000 && ticks.pending() > 0; ++calls) {
     ChangeRecord step;
-    ticks.process(noneBusy, everyTet, &step, true, limit_us);
+    ticks.process(noneBusy, everyTet, &step, true, limit_us, call_budget_us);
   }
   std::printf("%d collapses, %d flips, %d smoothing moves; in %d ticks, %d tets stopped\n",
               once.counts().collapsed_edges, once.counts().flips, once.counts().smoothed_vertices,
@@ -225,6 +227,12 @@ TEST(Collapse, ACallsLimitStopsItsFirstTetTooAndTheWorkEndsAsIfUninterrupted) {
   EXPECT_GT(workedOffAtOnceAndInTicks(1000.0, 25.0).stopped, 100);
 }
 
+// A call's own budget (the deadline's chunk) stands for the queue's: 35 us a call stops tets as
+// a queue of 35 us does (with the queue's 1,000 us, next to none would stop).
+TEST(Collapse, ACallsOwnBudgetStandsForTheQueues) {
+  EXPECT_GT(workedOffAtOnceAndInTicks(1000.0, -1.0, 35.0).stopped, 20);
+}
+
 namespace {
 
 // The block cut straight through with physics on (no gravity: it stays where it is) and the
@@ -250,8 +258,9 @@ int work(const Statistics& s) {
 }  // namespace
 
 // collapse/deadline: the queue works after the physics step, only while the tick is within its
-// deadline (0.9 of the 1 ms period), and starts only with 100 us left; unless the physics alone
-// (the 75th percentile of its last steps) leaves no 100 us.
+// deadline (0.9 of the 1 ms period), and starts only with 100 us left; where the physics alone
+// (the 75th percentile of its last steps) leaves no 100 us, it gets 100 us of budget a tick, and
+// where the physics alone takes the period, its whole budget.
 TEST(Collapse, TheTicksDeadlineLeavesTheQueueOnlyTheTimeTheTickHasLeft) {
   // 400 us a reading: the check comes 1.2 ms into the tick, past its deadline: no work, every
   // tick with tets queued counted as deferred.
@@ -263,8 +272,12 @@ TEST(Collapse, TheTicksDeadlineLeavesTheQueueOnlyTheTimeTheTickHasLeft) {
   const Statistics budget = cutOnAClock(0.0, 400.0);
   EXPECT_GT(budget.collapse.collapsed_edges, 10);
   EXPECT_EQ(budget.collapse.deferred_ticks, 0);
-  // A physics step of 0.8 ms leaves no 100 us before the deadline: it does not apply.
-  const Statistics slow = cutOnAClock(0.9, 800.0);
+  // A physics step of 0.85 ms leaves no 100 us before the deadline: a chunk of budget a tick.
+  const Statistics tight = cutOnAClock(0.9, 850.0);
+  EXPECT_GT(tight.collapse.collapsed_edges, 10);
+  EXPECT_EQ(tight.collapse.deferred_ticks, 0);
+  // A physics step of 1.1 ms: no tick keeps pace; the budget alone.
+  const Statistics slow = cutOnAClock(0.9, 1100.0);
   EXPECT_GT(slow.collapse.collapsed_edges, 10);
   EXPECT_EQ(slow.collapse.deferred_ticks, 0);
   // 50 us a reading: 0.75 ms left at the check, more than the budget.
@@ -273,6 +286,6 @@ TEST(Collapse, TheTicksDeadlineLeavesTheQueueOnlyTheTimeTheTickHasLeft) {
   EXPECT_EQ(spare.collapse.deferred_ticks, 0);
   std::printf(
       "work (collapses, flips, moves): deadline passed %d, no deadline %d, physics "
-      "too long %d, time to spare %d\n",
-      work(late), work(budget), work(slow), work(spare));
+      "leaving no chunk %d, physics over the period %d, time to spare %d\n",
+      work(late), work(budget), work(tight), work(slow), work(spare));
 }

@@ -46,8 +46,10 @@ class CollapseQueue {
   /// that busy() answers as on the last call: the tets that waited then are not looked at again.
   /// `limit_us` >= 0 caps this call's work below its budget, hard: no tet starts once it is
   /// spent, and the first tet stops between its steps too (0: no work at all this call).
+  /// `budget_us` > 0 is this call's budget instead of the queue's own.
   void process(const std::function<bool(int)>& busy, const std::function<bool(int)>& created_by_cut,
-               ChangeRecord* change, bool busy_changed = true, double limit_us = -1.0);
+               ChangeRecord* change, bool busy_changed = true, double limit_us = -1.0,
+               double budget_us = 0.0);
 
   /// Counts a tick that gave the queue no time (see Config::Collapse::deadline), if it held tets.
   void deferred() {

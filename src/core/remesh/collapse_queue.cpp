@@ -336,7 +336,8 @@ void CollapseQueue::queueFrom(const ChangeRecord& change,
 
 void CollapseQueue::process(const std::function<bool(int)>& busy,
                             const std::function<bool(int)>& created_by_cut, ChangeRecord* change,
-                            bool busy_changed, double limit_us) {
+                            bool busy_changed, double limit_us, double budget_us) {
+  const double budget = budget_us > 0.0 ? budget_us : budget_us_;
   const auto start = std::chrono::steady_clock::now();
   // Tets waiting for a busy neighbourhood stay aside while busy() answers as before: they would
   // only wait again (a tet a collapse changed since is queued anew by touched()).
@@ -355,7 +356,7 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   bool attempted = false;
   const bool limited = limit_us >= 0.0;
   while ((resume_ || !heap_.empty()) &&
-         (!attempted || budget_us_ <= 0 || spent_us() < budget_us_) &&
+         (!attempted || budget <= 0 || spent_us() < budget) &&
          (!limited || spent_us() < limit_us)) {
     const Entry e = resume_ ? *resume_ : heap_.top();
     if (resume_) {
@@ -384,7 +385,7 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     // the tet changed, or it would have been queued anew). Past the call's limit the first tet
     // stops too; a resumed tet always takes its next step, so every call makes progress.
     auto over = [&] {
-      return (!first && budget_us_ > 0 && spent_us() >= budget_us_) ||
+      return (!first && budget > 0 && spent_us() >= budget) ||
              (limited && spent_us() >= limit_us);
     };
     if (e.phase == kCollapsePhase && collapseBest(e.verts, created_by_cut, change)) continue;
