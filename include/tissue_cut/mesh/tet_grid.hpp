@@ -81,7 +81,7 @@ class TetGrid {
     return margin_ * 1.001 + 1e-6 * (std::abs(lo[d]) + std::abs(hi[d]));
   }
 
-  double cell_ = 1.0, margin_ = 0.0;
+  double cell_ = 1.0, inv_cell_ = 1.0, margin_ = 0.0;
   Vec3 origin_ = Vec3::Zero();
   std::array<int, 3> dims_{0, 0, 0};
   // A tet's box as filed (floats, rounded outward): a query tests it before it reads the mesh.

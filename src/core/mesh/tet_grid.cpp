@@ -36,13 +36,16 @@ float floatAbove(double x) { return -floatBelow(-x); }
 
 // At most this many cells per live tet: the cell grows when the mesh's box is sparse.
 constexpr double kMaxCellsPerTet = 4.0;
+// A refresh sorts the tets it refiles when they are fewer than one slot in this many; else it
+// reads them off in slot order (a sort costs ~17 ns an element, a slot's look ~0.5 ns).
+constexpr std::size_t kSortedPerSlot = 16;
 
 }  // namespace
 
 std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
   std::array<int, 3> c;
   for (int d = 0; d < 3; ++d) {
-    const double u = (x[d] - origin_[d]) / cell_;
+    const double u = (x[d] - origin_[d]) * inv_cell_;
     // Compare as doubles first: a far-away (or non-finite) point must not overflow the int. Past
     // zero the conversion's truncation is the floor (and std::floor a library call here).
     c[d] = !(u > 0) ? 0 : u >= dims_[d] - 1 ? dims_[d] - 1 : static_cast<int>(u);
@@ -150,7 +153,17 @@ void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refil
     }
   }
   drift_bound_ = std::sqrt(farthest);
-  std::sort(refiled->begin() + first, refiled->end());
+  // In increasing order: sorted, or, where many tets moved (the tissue sagging as a whole: a few
+  // thousand a tick), read off the stamps in slot order, which costs a quarter as much.
+  const std::size_t count = refiled->size() - first;
+  if (count * kSortedPerSlot < seen_.size()) {
+    std::sort(refiled->begin() + first, refiled->end());
+  } else {
+    refiled->resize(first);
+    const int slots = std::min<int>(mesh.tetSlots(), static_cast<int>(seen_.size()));
+    for (int t = 0; t < slots; ++t)
+      if (seen_[t] == stamp_) refiled->push_back(t);
+  }
   for (std::size_t i = first; i < refiled->size(); ++i) refile(mesh, (*refiled)[i]);
 }
 
@@ -173,6 +186,7 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
   };
   while (count(cell_) > budget) cell_ *= 1.25;
   origin_ = lo;
+  inv_cell_ = 1.0 / cell_;
   for (int d = 0; d < 3; ++d) dims_[d] = static_cast<int>(std::floor(extent[d] / cell_)) + 1;
   // Emptied cells keep their capacity: a rebuild of a grid of the same size allocates nothing.
   const std::size_t cells = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
