@@ -76,6 +76,8 @@ class Tissue {
   bool createdByCut(int t) const {
     return t < static_cast<int>(cut_region_.size()) && cut_region_[t];
   }
+  // A physics step's time [us] into the ring below; its percentile every kSlowEvery steps.
+  void recordPhysicsTime(double us);
   // Whether the collapse queue keeps the tick's deadline (Config::Collapse::deadline).
   bool keepsDeadline() const;
   // After the physics step: the collapse queue within the time the tick has left (see

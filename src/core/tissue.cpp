@@ -148,6 +148,16 @@ bool Tissue::keepsDeadline() const {
          config_.collapse.deadline > 0.0;
 }
 
+void Tissue::recordPhysicsTime(double us) {
+  recent_physics_us_[physics_steps_++ % kRecentSteps] = us;
+  if (physics_steps_ % kSlowEvery != 0 && physics_steps_ >= kSlowEvery) return;
+  const auto n = static_cast<std::ptrdiff_t>(std::min<long long>(physics_steps_, kRecentSteps));
+  std::array<double, kRecentSteps> sorted = recent_physics_us_;
+  const auto at = sorted.begin() + n * kSlowPercent / 100;
+  std::nth_element(sorted.begin(), at, sorted.begin() + n);
+  physics_slow_us_ = *at;
+}
+
 void Tissue::workCollapseQueueByDeadline(double tick_start_us) {
   const double deadline_us = 1e6 * config_.collapse.deadline / config_.rate;
   const double left = deadline_us - (nowUs() - tick_start_us);
@@ -207,14 +217,7 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
     const double physics_start = nowUs();
     const std::string unstable = physics_->step(dt);
     if (!unstable.empty()) warning += (warning.empty() ? "" : "; ") + unstable;
-    recent_physics_us_[physics_steps_++ % kRecentSteps] = nowUs() - physics_start;
-    if (physics_steps_ % kSlowEvery == 0 || physics_steps_ < kSlowEvery) {
-      const auto n = static_cast<std::ptrdiff_t>(std::min<long long>(physics_steps_, kRecentSteps));
-      std::array<double, kRecentSteps> sorted = recent_physics_us_;
-      const auto at = sorted.begin() + n * kSlowPercent / 100;
-      std::nth_element(sorted.begin(), at, sorted.begin() + n);
-      physics_slow_us_ = *at;
-    }
+    recordPhysicsTime(nowUs() - physics_start);
     // The cutter's tet index looks for drift only once the moves could add up to enough.
     cutter_->tissueMoved(physics_->lastMaxDisplacement());
   } else {
