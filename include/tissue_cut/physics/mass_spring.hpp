@@ -252,8 +252,9 @@ class MassSpring {
   std::vector<Vec3> b_, r_, z_, p_, ap_, dv_, x0_;
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
   std::vector<unsigned char> held_;  // rows held at zero this step: fixed or dead vertices
-  // Each part sums its springs' terms here (per part, per vertex; zeroed and filled by the
-  // thread that runs the part, so that the buffer stays in that core's cache).
+  // Each part sums its springs' terms here (per part, per vertex). Zero between uses: the
+  // vertex loop that reads a row (of every part's buffer) zeroes it, so no pass of its own clears
+  // them. (Each part cleared its whole buffer before: with two threads both cleared all rows.)
   std::vector<std::vector<Vec3>> acc_;
   std::vector<std::vector<Vec3>> start_acc_;  // the springs' part of A dv for the warm start
   std::vector<std::vector<Block>> diag_acc_;

@@ -393,10 +393,8 @@ void MassSpring::springProducts(int part, const Vec3* pv) {
   // by their first end (mostly: new ones go last), so the first end's sum stays in registers along
   // a run and only the second end is scattered; that breaks the chain of dependent loads and
   // stores through out[a].
-  // The part's own buffer, zeroed by the thread that fills it (it stays in that core's cache).
-  std::vector<Vec3>& buffer = acc_[part];
-  std::fill(buffer.begin(), buffer.end(), Vec3::Zero());
-  Vec3* out = buffer.data();
+  // The part's own buffer, zero on entry: the vertex loop that reads it zeroes each row it read.
+  Vec3* out = acc_[part].data();
   // The part's springs as assembleSprings() packed them (none whose ends are both held).
   const int begin = rangeOf(static_cast<int>(springs_.size()), part).first;
   const int end = packed_end_[part];
@@ -423,7 +421,7 @@ void MassSpring::assembleSprings(int part, double dt) {
   // A part's springs: their forces, their stiffness blocks (kept scaled by h^2 for the CG
   // products), and their terms of the right-hand side, of the diagonal blocks and of A dv for
   // the warm start dv (so that CG's first residual needs no pass of its own), summed into the
-  // part's own buffers (zeroed here, by the thread that fills them).
+  // part's own buffers (zero on entry: the set-up's vertex loop zeroes each row it has read).
   // A spring both of whose ends are held (fixed, as a tray holds the bottom of an organ) adds
   // only to rows that are zero: it is left out here and, through ends_, from every CG product.
   // The part's other springs are packed, in order, from the start of its range of ends_ and
@@ -435,9 +433,6 @@ void MassSpring::assembleSprings(int part, double dt) {
   const Vec3* x = mesh_->currentPositions().data();
   const Vec3* u = mesh_->velocities().data();
   const Vec3* w = dv_.data();
-  std::fill(acc_[part].begin(), acc_[part].end(), Vec3::Zero());
-  std::fill(start_acc_[part].begin(), start_acc_[part].end(), Vec3::Zero());
-  std::fill(diag_acc_[part].begin(), diag_acc_[part].end(), Block{0, 0, 0, 0, 0, 0});
   Vec3* acc = acc_[part].data();
   Vec3* start = start_acc_[part].data();
   Block* diag = diag_acc_[part].data();
@@ -879,9 +874,9 @@ bool MassSpring::stepImplicit(double dt) {
   acc_.resize(parts);
   start_acc_.resize(parts);
   diag_acc_.resize(parts);
-  for (auto& e : acc_) e.resize(n);
-  for (auto& e : start_acc_) e.resize(n);
-  for (auto& e : diag_acc_) e.resize(n);
+  for (auto& e : acc_) e.resize(n, Vec3::Zero());
+  for (auto& e : start_acc_) e.resize(n, Vec3::Zero());
+  for (auto& e : diag_acc_) e.resize(n, Block{0, 0, 0, 0, 0, 0});
 
   // The warm start: the last steps' answers extrapolated (the velocity change varies smoothly
   // from step to step; 16.2 -> 13.1 CG iterations a step on the 20k organ while it is cut),
@@ -933,6 +928,9 @@ bool MassSpring::stepImplicit(double dt) {
         b += acc_[q][v];
         a += start_acc_[q][v];
         addTo(&diag, diag_acc_[q][v]);
+        acc_[q][v].setZero();
+        start_acc_[q][v].setZero();
+        diag_acc_[q][v] = {0, 0, 0, 0, 0, 0};
       }
       const Vec3 bv = held[v] ? Vec3::Zero() : Vec3(dt * b);
       if (cluster_of[v] >= 0) cluster_diag[v] = diag;  // see factorClusters()
@@ -985,7 +983,10 @@ bool MassSpring::stepImplicit(double dt) {
         // part by part. Held rows (fixed vertices) are zero; dead vertices have no mass and no
         // springs.
         Vec3 sum = (mass_damping * inertia[v]) * p[v];
-        for (int q = 0; q < parts; ++q) sum += acc_[q][v];
+        for (int q = 0; q < parts; ++q) {
+          sum += acc_[q][v];
+          acc_[q][v].setZero();
+        }
         const Vec3 apv = held[v] ? Vec3::Zero() : sum;
         ap[v] = apv;
         pap += p[v].dot(apv);
@@ -993,7 +994,7 @@ bool MassSpring::stepImplicit(double dt) {
       partial_[part].sum[0] = pap;
     });
     const double pap = partialSum(0);
-    if (!(pap > 0)) break;
+    if (!(pap > 0)) break;  // the loop above has left the products' buffers zero
     const double alpha = rz / pap;
     parallel([&, alpha](int part) {
       const auto [begin, end] = rangeOf(n, part);
