@@ -152,9 +152,9 @@ namespace {
 
 // Every tet of a cut block queued as if the cut had just made it, worked off at once and in
 // calls of process() with `budget_us` (or `call_budget_us` given to each call, if positive) and a
-// limit of `limit_us` a call (-1: none), the budget
-// measured on a clock that advances 10 us a reading, so that it ends inside tets' work at known
-// places: both must end with the same mesh. The ticked queue's counts.
+// limit of `limit_us` a call (-1: none), the budget measured on a clock that advances 10 us a
+// reading, so that it ends inside tets' work at known places: both must end with the same mesh.
+// The ticked queue's counts.
 CollapseCounts workedOffAtOnceAndInTicks(double budget_us, double limit_us,
                                          double call_budget_us = 0.0) {
   const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
