@@ -105,6 +105,9 @@ class Tissue {
   double physics_slow_us_ = 0.0;
   std::function<double()> clock_;  // null: the steady clock
   std::vector<unsigned char> cut_region_;
+  std::vector<unsigned char> removed_flag_;  // applyChange()'s scratch: removed tets' flags
+  std::vector<unsigned> removed_seen_;       // and the record they belong to
+  unsigned removed_stamp_ = 0;
   TickTimes tick_times_;
   double initial_volume_ = 0.0;
 };

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <unordered_map>
 
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/quality.hpp"
@@ -117,17 +116,22 @@ std::string Tissue::reconfigure(const Config& c) {
 
 void Tissue::applyChange(const ChangeRecord& change) {
   // A renamed tet keeps its flag; a tet a cut made gets 1. Slots may be reused within a record,
-  // so read the removed flags first.
-  std::unordered_map<int, unsigned char> removed;
+  // so read the removed flags first (by slot, stamped for this record: no map, no allocation
+  // once grown; a slot removed twice keeps the 0 its first removal left, as a map did).
+  nextStamp(&removed_seen_, &removed_stamp_, mesh_.tetSlots());
+  if (removed_flag_.size() < removed_seen_.size()) removed_flag_.resize(removed_seen_.size(), 0);
   for (int t : change.removed_tets) {
-    removed[t] = cut_region_[t];
+    removed_seen_[t] = removed_stamp_;
+    removed_flag_[t] = cut_region_[t];
     cut_region_[t] = 0;
   }
   if (static_cast<int>(cut_region_.size()) < mesh_.tetSlots())
     cut_region_.resize(mesh_.tetSlots(), 0);
   for (std::size_t i = 0; i < change.added_tets.size(); ++i) {
     const int from = change.added_from[i];
-    cut_region_[change.added_tets[i]] = from >= 0 ? removed[from] : 1;
+    const bool known = from >= 0 && from < static_cast<int>(removed_seen_.size()) &&
+                       removed_seen_[from] == removed_stamp_;
+    cut_region_[change.added_tets[i]] = from < 0 ? 1 : known ? removed_flag_[from] : 0;
   }
 }
 

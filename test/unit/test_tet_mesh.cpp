@@ -341,3 +341,27 @@ TEST(TetMesh, ValidateNamesAnIsolatedVertex) {
   mesh.addVertex({{0, 1.0}}, nullptr);
   EXPECT_NE(mesh.validate().find("has no tetrahedron"), std::string::npos);
 }
+
+TEST(TetMesh, HasEdgeAnswersAsTheEdgesStar) {
+  // Every pair of vertices of a block with a bisected edge: an edge exactly when its star is not
+  // empty (the remeshers ask this of chords and new edges without building the star).
+  BlockSpec spec;
+  spec.cell_size = 0.02;
+  const MeshData b = makeBlock(spec);
+  TetMesh mesh(b.V, b.T);
+  const auto [a0, b0] = mesh.edges().front();
+  ChangeRecord record;
+  bisectEdge(mesh, a0, b0, &record);
+  int edges = 0, pairs = 0;
+  for (int u = 0; u < mesh.vertexSlots(); ++u)
+    for (int v = 0; v < mesh.vertexSlots(); ++v) {
+      if (u == v || !mesh.vertexAlive(u) || !mesh.vertexAlive(v)) continue;
+      ++pairs;
+      const bool edge = !mesh.edgeTets(u, v).empty();
+      ASSERT_EQ(mesh.hasEdge(u, v), edge) << u << "-" << v;
+      edges += edge;
+    }
+  EXPECT_EQ(edges, 2 * static_cast<int>(mesh.edges().size()));
+  EXPECT_LT(edges, pairs);
+  EXPECT_FALSE(mesh.hasEdge(a0, b0));  // bisected: gone
+}

@@ -127,6 +127,8 @@ class TetMesh {
   const std::vector<int>& vertexTets(int v) const { return vertex_tets_[v]; }
   /// Live tets containing both a and b (the star of edge ab), in no particular order.
   std::vector<int> edgeTets(int a, int b) const;
+  /// Whether some live tet holds both a and b (edgeTets() not empty), without building the list.
+  bool hasEdge(int a, int b) const;
   /// The live tet having face {a, b, c} other than `except`, or -1.
   int faceTet(int a, int b, int c, int except = -1) const;
   /// Number of boundary faces (faces with no neighbour).

@@ -218,6 +218,12 @@ std::vector<int> TetMesh::edgeTets(int a, int b) const {
   return out;
 }
 
+bool TetMesh::hasEdge(int a, int b) const {
+  for (int t : vertex_tets_[a])
+    if (contains(tets_[t], b)) return true;
+  return false;
+}
+
 int TetMesh::faceTet(int a, int b, int c, int except) const {
   for (int t : vertex_tets_[a]) {
     if (t == except) continue;

@@ -64,9 +64,13 @@ void CollapseQueue::touched(int s, const std::function<bool(int)>& created_by_cu
   // Everything around s changed: old entries there go stale, its bad tets requeue.
   if (static_cast<int>(vertex_stamp_.size()) < mesh_->vertexSlots())
     vertex_stamp_.resize(mesh_->vertexSlots(), 0);
-  std::set<int> around;
+  // Each vertex of its star once (sorted and made unique in a kept buffer: no allocation).
+  std::vector<int>& around = around_scratch_;
+  around.clear();
   for (int t : mesh_->vertexTets(s))
-    for (int v : mesh_->tet(t)) around.insert(v);
+    for (int v : mesh_->tet(t)) around.push_back(v);
+  std::sort(around.begin(), around.end());
+  around.erase(std::unique(around.begin(), around.end()), around.end());
   for (int v : around) ++vertex_stamp_[v];
   for (int t : mesh_->vertexTets(s))
     if (created_by_cut(t)) queueTet(t);
@@ -177,9 +181,12 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
   counts_.removed_tetrahedra +=
       static_cast<int>(best.removed.size()) - static_cast<int>(best.added.size());
   change->append(local);
-  std::set<int> verts;
+  // Their vertices once each, in increasing order (touched() uses around_scratch_ itself).
+  std::vector<int> verts;
   for (int a : added)
-    for (int v : mesh_->tet(a)) verts.insert(v);
+    for (int v : mesh_->tet(a)) verts.push_back(v);
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
   for (int v : verts) touched(v, created_by_cut);
   return true;
 }

@@ -36,7 +36,7 @@ bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* o
   int e = -1;
   for (int v : mesh.tet(u))
     if (v != a && v != b && v != c) e = v;
-  if (e < 0 || !mesh.edgeTets(d, e).empty()) return false;  // de exists: a flip would fold
+  if (e < 0 || mesh.hasEdge(d, e)) return false;  // de exists: a flip would fold
   if (may_join && !may_join(d, e)) return false;
   FlipCandidate cand;
   cand.removed = {t, u};
@@ -51,30 +51,41 @@ bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* o
 
 bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out,
                 const std::function<bool(int, int)>& may_join) {
-  const std::vector<int> ring_tets = mesh.edgeTets(a, b);
-  const int n = static_cast<int>(ring_tets.size());
-  if (n < 3 || n > kMaxEdgeRing || isBoundaryEdge(mesh, a, b)) return false;
+  // The edge's tets, at most kMaxEdgeRing of them (a longer ring is never flipped). The queue asks
+  // this of every edge of every tet it works: nothing here allocates until a flip is found.
+  std::array<int, kMaxEdgeRing> ring_tets;
+  int n = 0;
+  for (int t : mesh.vertexTets(a)) {
+    const TetVerts& tv = mesh.tet(t);
+    if (std::find(tv.begin(), tv.end(), b) == tv.end()) continue;
+    if (n == kMaxEdgeRing) return false;
+    ring_tets[n++] = t;
+  }
+  if (n < 3 || isBoundaryEdge(mesh, a, b)) return false;
   // The ring: around an interior edge every tet shares its two faces through ab with the next
   // one, so the tets' other two vertices chain into one cycle r0 ... r(n-1).
-  std::vector<std::array<int, 2>> pairs;
-  for (int t : ring_tets) {
+  std::array<std::array<int, 2>, kMaxEdgeRing> pairs;
+  for (int i = 0; i < n; ++i) {
     std::array<int, 2> p{-1, -1};
     int k = 0;
-    for (int v : mesh.tet(t))
+    for (int v : mesh.tet(ring_tets[i]))
       if (v != a && v != b && k < 2) p[k++] = v;
     if (k != 2) return false;
-    pairs.push_back(p);
+    pairs[i] = p;
   }
-  std::vector<int> ring = {pairs[0][0], pairs[0][1]};
-  std::vector<char> used(n, 0);
+  std::array<int, kMaxEdgeRing> ring;
+  int ring_size = 2;
+  ring[0] = pairs[0][0];
+  ring[1] = pairs[0][1];
+  std::array<char, kMaxEdgeRing> used{};
   used[0] = 1;
-  while (static_cast<int>(ring.size()) < n) {
+  while (ring_size < n) {
     bool extended = false;
     for (int i = 0; i < n && !extended; ++i) {
       if (used[i]) continue;
       for (int k = 0; k < 2 && !extended; ++k)
-        if (pairs[i][k] == ring.back()) {
-          ring.push_back(pairs[i][1 - k]);
+        if (pairs[i][k] == ring[ring_size - 1]) {
+          ring[ring_size++] = pairs[i][1 - k];
           used[i] = 1;
           extended = true;
         }
@@ -83,22 +94,22 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
   }
   // The last unused pair must close the cycle; ring vertices must be distinct.
   for (int i = 0; i < n; ++i)
-    if (!used[i] && !((pairs[i][0] == ring.back() && pairs[i][1] == ring[0]) ||
-                      (pairs[i][1] == ring.back() && pairs[i][0] == ring[0])))
+    if (!used[i] && !((pairs[i][0] == ring[n - 1] && pairs[i][1] == ring[0]) ||
+                      (pairs[i][1] == ring[n - 1] && pairs[i][0] == ring[0])))
       return false;
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j)
       if (ring[i] == ring[j]) return false;
   // Counter-clockwise seen from b: every tet (a, b, r_i, r_i+1) is positive.
   if (signedVolume(mesh.rest(a), mesh.rest(b), mesh.rest(ring[0]), mesh.rest(ring[1])) < 0)
-    std::reverse(ring.begin(), ring.end());
+    std::reverse(ring.begin(), ring.begin() + n);
 
   // Triangle (i, k, j), i < k < j, gives the tets (r_i, r_k, r_j, b) and (r_i, r_j, r_k, a).
   // Its worst Q, or -1 when a tet is unsound, a chord is an edge already or the triangle a face.
   auto triangle = [&](int i, int k, int j) {
     auto chordFree = [&](int p, int q) {
       return q - p == 1 || (p == 0 && q == n - 1) ||
-             ((!may_join || may_join(ring[p], ring[q])) && mesh.edgeTets(ring[p], ring[q]).empty());
+             ((!may_join || may_join(ring[p], ring[q])) && !mesh.hasEdge(ring[p], ring[q]));
     };
     if (!chordFree(i, k) || !chordFree(k, j) || !chordFree(i, j)) return -1.0;
     if (mesh.faceTet(ring[i], ring[k], ring[j]) >= 0) return -1.0;
@@ -107,8 +118,10 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
     return std::min(quality(mesh, up), quality(mesh, down));
   };
   // Klincsek's dynamic programme over sub-polygons: the triangulation maximising the worst Q.
-  std::vector<std::vector<double>> best(n, std::vector<double>(n, 1.0));
-  std::vector<std::vector<int>> apex(n, std::vector<int>(n, -1));
+  std::array<std::array<double, kMaxEdgeRing>, kMaxEdgeRing> best;
+  std::array<std::array<int, kMaxEdgeRing>, kMaxEdgeRing> apex;
+  for (auto& row : best) row.fill(1.0);
+  for (auto& row : apex) row.fill(-1);
   for (int len = 2; len < n; ++len)
     for (int i = 0; i + len < n; ++i) {
       const int j = i + len;
@@ -121,11 +134,13 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
         }
       }
     }
+  double worst_before = 1.0;
+  for (int i = 0; i < n; ++i)
+    worst_before = std::min(worst_before, restQuality(mesh, ring_tets[i]));
+  if (!(best[0][n - 1] >= worst_before + min_gain)) return false;
   FlipCandidate cand;
-  cand.removed = ring_tets;
-  cand.worst_before = 1.0;
-  for (int t : ring_tets) cand.worst_before = std::min(cand.worst_before, restQuality(mesh, t));
-  if (!(best[0][n - 1] >= cand.worst_before + min_gain)) return false;
+  cand.removed.assign(ring_tets.begin(), ring_tets.begin() + n);
+  cand.worst_before = worst_before;
   std::vector<std::array<int, 2>> todo = {{0, n - 1}};
   while (!todo.empty()) {
     const auto [i, j] = todo.back();
@@ -144,8 +159,15 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
 
 bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double min_gain,
             FlipCandidate* out, double length_floor) {
-  const std::vector<int> pair_tets = mesh.edgeTets(a, b);
-  if (pair_tets.size() != 2) return false;
+  std::array<int, 2> pair_tets;  // the edge's tets: exactly two
+  int count = 0;
+  for (int t : mesh.vertexTets(a)) {
+    const TetVerts& tv = mesh.tet(t);
+    if (std::find(tv.begin(), tv.end(), b) == tv.end()) continue;
+    if (count == 2) return false;
+    pair_tets[count++] = t;
+  }
+  if (count != 2) return false;
   // The apex x both tets share across their common face abx, and each tet's own vertex c, d.
   const TetVerts &t0 = mesh.tet(pair_tets[0]), &t1 = mesh.tet(pair_tets[1]);
   int x = -1, c = -1, d = -1;
@@ -156,7 +178,7 @@ bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double mi
     if (v != a && v != b && v != x) c = v;
   for (int v : t1)
     if (v != a && v != b && v != x) d = v;
-  if (c < 0 || d < 0 || c == d || !mesh.edgeTets(c, d).empty()) return false;
+  if (c < 0 || d < 0 || c == d || mesh.hasEdge(c, d)) return false;
   // abc and abd must both be boundary faces: the face opposite x in each tet.
   for (int k = 0; k < 2; ++k) {
     const int t = pair_tets[k];
@@ -177,7 +199,7 @@ bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double mi
   if (nd.dot(px - pa) > 0) nd = -nd;
   if (!(nc.dot(nd) > 0)) return false;
   FlipCandidate cand;
-  cand.removed = pair_tets;
+  cand.removed.assign(pair_tets.begin(), pair_tets.end());
   cand.worst_before = std::min(restQuality(mesh, pair_tets[0]), restQuality(mesh, pair_tets[1]));
   // Orient cdx so that a lies on its positive side; b then lies on the other.
   TetVerts first{c, d, x, a}, second{c, x, d, b};

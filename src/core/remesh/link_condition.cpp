@@ -138,9 +138,11 @@ bool isBoundaryVertex(const TetMesh& mesh, int v) {
 }
 
 bool isBoundaryEdge(const TetMesh& mesh, int a, int b) {
-  for (int t : mesh.edgeTets(a, b)) {
+  for (int t : mesh.vertexTets(a)) {  // the edge's tets, without a list of them
     const TetVerts& tv = mesh.tet(t);
-    const int ia = localIndex(tv, a), ib = localIndex(tv, b);
+    const int ib = localIndex(tv, b);
+    if (ib < 0) continue;
+    const int ia = localIndex(tv, a);
     for (int f = 0; f < 4; ++f)
       if (f != ia && f != ib && mesh.neighbor(t, f) < 0) return true;
   }
