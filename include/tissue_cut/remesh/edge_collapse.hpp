@@ -84,9 +84,14 @@ std::vector<int> foldNeighbours(const TetMesh& mesh, int v);
 ///    other in rest positions, so the plane and volume measures cannot see a front vertex moving
 ///    up a wall: that would close the crack behind it.
 ///  - kQuality: worst_after < worst_before (rest positions, Q = 3 r_in / R_circ).
+/// With link_last, the link condition is tested after the geometry, and only where a way passes
+/// it: the same decision (refused or not, and which end moves), but an edge refused by both is
+/// reported for its geometry, not as kLink. The collapse queue checks so: most of its edges fail
+/// on geometry (the 20k organ's replay: seven checks in eight), and the link test is as dear as
+/// the geometry's.
 /// Throws std::invalid_argument when ab is not an edge of live tets.
 CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance = 0.0,
-                            double length_floor = 0.0);
+                            double length_floor = 0.0, bool link_last = false);
 
 /// Collapses edge ab if checkCollapse accepts it: TetMesh::mergeVertices(removed, survivor,
 /// record), so the survivor keeps its own rest and current positions.

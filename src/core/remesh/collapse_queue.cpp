@@ -98,7 +98,7 @@ bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(in
   for (const auto& edge : kTetEdge) {
     const int a = tv[edge[0]], b = tv[edge[1]];
     if (alreadyRefused(a, b)) continue;  // nothing changed around it since it was refused
-    CollapseCheck check = checkCollapse(*mesh_, a, b, shape_tolerance_, length_floor_);
+    CollapseCheck check = checkCollapse(*mesh_, a, b, shape_tolerance_, length_floor_, true);
     if (check.refusal == CollapseRefusal::kNone && shape_tolerance_ > 0.0 &&
         std::abs(volume_changed_ + check.volume_change) > volume_budget_)
       check.refusal = CollapseRefusal::kBoundary;  // the rest volume would drift too far

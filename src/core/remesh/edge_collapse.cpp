@@ -192,9 +192,11 @@ double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d
 }
 
 CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance,
-                            double length_floor) {
-  // Throws for a non-edge before anything else is read.
-  const bool link_holds = linkConditionHolds(mesh, a, b);
+                            double length_floor, bool link_last) {
+  // Throws for a non-edge before anything else is read (linkConditionHolds does).
+  const bool edge = a >= 0 && b >= 0 && a < mesh.vertexSlots() && b < mesh.vertexSlots() &&
+                    a != b && mesh.vertexAlive(a) && mesh.vertexAlive(b) && mesh.hasEdge(a, b);
+  const bool link_holds = link_last && edge ? true : linkConditionHolds(mesh, a, b);
   const bool a_boundary = isBoundaryVertex(mesh, a), b_boundary = isBoundaryVertex(mesh, b);
   // Newer onto older: a cut point goes back onto an original vertex, and the older part of the
   // mesh, which other data has seen longer, stays where it was.
@@ -211,11 +213,21 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tole
   const bool geometric = first.refusal == CollapseRefusal::kInversion ||
                          first.refusal == CollapseRefusal::kQuality ||
                          first.refusal == CollapseRefusal::kBoundary;
-  if (!geometric || a_boundary != b_boundary) return first;
-  const CollapseCheck second =
-      evaluate(mesh, survivor, removed, link_holds, a_boundary, b_boundary, a, b, shape_tolerance,
-               length_floor);
-  return second.refusal == CollapseRefusal::kNone ? second : first;
+  CollapseCheck decided = first;
+  if (geometric && a_boundary == b_boundary) {
+    const CollapseCheck second = evaluate(mesh, survivor, removed, link_holds, a_boundary,
+                                          b_boundary, a, b, shape_tolerance, length_floor);
+    if (second.refusal == CollapseRefusal::kNone) decided = second;
+  }
+  if (link_last && decided.refusal == CollapseRefusal::kNone && !linkConditionHolds(mesh, a, b)) {
+    // What the link test first would have returned: the preferred way, refused before its
+    // geometry was known.
+    decided = CollapseCheck{};
+    decided.refusal = CollapseRefusal::kLink;
+    decided.removed = removed;
+    decided.survivor = survivor;
+  }
+  return decided;
 }
 
 bool collapseEdge(TetMesh* mesh, int a, int b, ChangeRecord* record, CollapseCheck* check,
