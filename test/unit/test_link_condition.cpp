@@ -604,6 +604,26 @@ void expectAgreementOnEveryEdge(const TetMesh& mesh, const char* name, int* refu
   EXPECT_GT(edges, 0);
 }
 
+// The default block cut half-way through by a straight stroke, without physics (collapse on or
+// off, its budget unbounded); *cut_tets: the tets the cut replaced.
+TetMesh cutBlock(bool collapse, int* cut_tets) {
+  Config config;
+  config.physics.enabled = false;
+  config.collapse.enabled = collapse;
+  config.collapse.budget_us = 0.0;
+  config.cut.blade_length = 0.025;
+  Tissue tissue(config, makeBlock());
+  const ScalpelPath path({ToolPose{0.0, Vec3(-0.07, 0.0017, 0.04), Eigen::Quaterniond::Identity()},
+                          ToolPose{0.2, Vec3(0.0, 0.0017, 0.04), Eigen::Quaterniond::Identity()}});
+  for (int k = 0; k <= 200; ++k) {
+    const ToolPose p = path.at(k * 1e-3);
+    tissue.step(bladeFromPose(p.position, p.orientation, 0.025), 1e-3);
+  }
+  tissue.step(std::nullopt, 1e-3);
+  *cut_tets = tissue.statistics().cut.cut_tetrahedra;
+  return tissue.mesh();
+}
+
 }  // namespace
 
 TEST(LinkCondition, AgreesWithTheDefinitionOnEveryEdge) {
@@ -627,21 +647,10 @@ TEST(LinkCondition, AgreesWithTheDefinitionOnEveryEdge) {
     expectAgreementOnEveryEdge(TetMesh(holed.V, holed.T), "holed block", &refused);
   }
   {
-    Config config;
-    config.physics.enabled = false;
-    config.collapse.enabled = false;
-    config.cut.blade_length = 0.025;
-    Tissue tissue(config, makeBlock());
-    const ScalpelPath path(
-        {ToolPose{0.0, Vec3(-0.07, 0.0017, 0.04), Eigen::Quaterniond::Identity()},
-         ToolPose{0.2, Vec3(0.0, 0.0017, 0.04), Eigen::Quaterniond::Identity()}});
-    for (int k = 0; k <= 200; ++k) {
-      const ToolPose p = path.at(k * 1e-3);
-      tissue.step(bladeFromPose(p.position, p.orientation, 0.025), 1e-3);
-    }
-    tissue.step(std::nullopt, 1e-3);
-    ASSERT_GT(tissue.statistics().cut.cut_tetrahedra, 20);
-    expectAgreementOnEveryEdge(tissue.mesh(), "cut block", &refused);
+    int cut_tets = 0;
+    const TetMesh cut = cutBlock(false, &cut_tets);
+    ASSERT_GT(cut_tets, 20);
+    expectAgreementOnEveryEdge(cut, "cut block", &refused);
   }
   EXPECT_GT(refused, 100);  // the refusals are exercised, not only the passes
   std::printf("edges refused by the link condition: %d\n", refused);
@@ -708,23 +717,10 @@ TEST(EdgeCollapse, LinkTestedLastDecidesAsLinkTestedFirst) {
   for (const bool collapse : {false, true}) {
     // A block cut half-way through, without collapse (slivers everywhere) and with it (what the
     // queue left: its link refusals among them).
-    Config config;
-    config.physics.enabled = false;
-    config.collapse.enabled = collapse;
-    config.collapse.budget_us = 0.0;
-    config.cut.blade_length = 0.025;
-    Tissue tissue(config, makeBlock());
-    const ScalpelPath path(
-        {ToolPose{0.0, Vec3(-0.07, 0.0017, 0.04), Eigen::Quaterniond::Identity()},
-         ToolPose{0.2, Vec3(0.0, 0.0017, 0.04), Eigen::Quaterniond::Identity()}});
-    for (int k = 0; k <= 200; ++k) {
-      const ToolPose p = path.at(k * 1e-3);
-      tissue.step(bladeFromPose(p.position, p.orientation, 0.025), 1e-3);
-    }
-    tissue.step(std::nullopt, 1e-3);
-    ASSERT_GT(tissue.statistics().cut.cut_tetrahedra, 20);
-    expectLinkLastDecidesAlike(tissue.mesh(), collapse ? "cut block, collapsed" : "cut block",
-                               &tally);
+    int cut_tets = 0;
+    const TetMesh cut = cutBlock(collapse, &cut_tets);
+    ASSERT_GT(cut_tets, 20);
+    expectLinkLastDecidesAlike(cut, collapse ? "cut block, collapsed" : "cut block", &tally);
   }
   // Link-refused edges the geometry refuses first, and collapses accepted, exercised (on these
   // meshes the geometry refuses every collapse the link condition does; the next test builds one
