@@ -344,7 +344,7 @@ TEST(TetMesh, ValidateNamesAnIsolatedVertex) {
 
 TEST(TetMesh, HasEdgeAnswersAsTheEdgesStar) {
   // Every pair of vertices of a block with a bisected edge: an edge exactly when its star is not
-  // empty (the remeshers ask this of chords and new edges without building the star).
+  // empty, and the bounded star as the star (the remeshers ask these without allocating).
   BlockSpec spec;
   spec.cell_size = 0.02;
   const MeshData b = makeBlock(spec);
@@ -357,8 +357,13 @@ TEST(TetMesh, HasEdgeAnswersAsTheEdgesStar) {
     for (int v = 0; v < mesh.vertexSlots(); ++v) {
       if (u == v || !mesh.vertexAlive(u) || !mesh.vertexAlive(v)) continue;
       ++pairs;
-      const bool edge = !mesh.edgeTets(u, v).empty();
+      const std::vector<int> star = mesh.edgeTets(u, v);
+      const bool edge = !star.empty();
       ASSERT_EQ(mesh.hasEdge(u, v), edge) << u << "-" << v;
+      // The bounded form: the whole count, the first two written in the same order.
+      int first[2] = {-1, -1};
+      ASSERT_EQ(mesh.edgeTets(u, v, first, 2), static_cast<int>(star.size())) << u << "-" << v;
+      for (int k = 0; k < std::min<int>(2, star.size()); ++k) ASSERT_EQ(first[k], star[k]);
       edges += edge;
     }
   EXPECT_EQ(edges, 2 * static_cast<int>(mesh.edges().size()));

@@ -127,6 +127,9 @@ class TetMesh {
   const std::vector<int>& vertexTets(int v) const { return vertex_tets_[v]; }
   /// Live tets containing both a and b (the star of edge ab), in no particular order.
   std::vector<int> edgeTets(int a, int b) const;
+  /// The same into out[0 .. capacity) (no allocation); returns how many there are, which may be
+  /// more than capacity (the rest not written).
+  int edgeTets(int a, int b, int* out, int capacity) const;
   /// Whether some live tet holds both a and b (edgeTets() not empty), without building the list.
   bool hasEdge(int a, int b) const;
   /// The live tet having face {a, b, c} other than `except`, or -1.

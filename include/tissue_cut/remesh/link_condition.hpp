@@ -25,6 +25,10 @@ bool isBoundaryVertex(const TetMesh& mesh, int v);
 /// Inputs: mesh, an edge ab of live tets. Output: whether ab lies on a boundary face.
 bool isBoundaryEdge(const TetMesh& mesh, int a, int b);
 
+/// Throws std::invalid_argument naming `who` and the pair unless a and b are two live vertices
+/// joined by an edge of a live tet (what linkConditionHolds and checkCollapse require).
+void requireEdge(const TetMesh& mesh, int a, int b, const char* who);
+
 /// Inputs: mesh, two live vertices a != b joined by an edge of a live tet.
 /// Output: whether contracting ab keeps the topology: Lk(a) ∩ Lk(b) = Lk(ab) at every level
 /// (vertices, edges, triangles) in the mesh closed by ω. Lk(v) holds the vertices, edges and

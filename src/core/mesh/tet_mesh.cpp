@@ -218,6 +218,16 @@ std::vector<int> TetMesh::edgeTets(int a, int b) const {
   return out;
 }
 
+int TetMesh::edgeTets(int a, int b, int* out, int capacity) const {
+  int count = 0;
+  for (int t : vertex_tets_[a])
+    if (contains(tets_[t], b)) {
+      if (count < capacity) out[count] = t;
+      ++count;
+    }
+  return count;
+}
+
 bool TetMesh::hasEdge(int a, int b) const {
   for (int t : vertex_tets_[a])
     if (contains(tets_[t], b)) return true;

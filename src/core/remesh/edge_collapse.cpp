@@ -193,10 +193,9 @@ double planeDeviation(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& d
 
 CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance,
                             double length_floor, bool link_last) {
-  // Throws for a non-edge before anything else is read (linkConditionHolds does).
-  const bool edge = a >= 0 && b >= 0 && a < mesh.vertexSlots() && b < mesh.vertexSlots() &&
-                    a != b && mesh.vertexAlive(a) && mesh.vertexAlive(b) && mesh.hasEdge(a, b);
-  const bool link_holds = link_last && edge ? true : linkConditionHolds(mesh, a, b);
+  // Throws for a non-edge before anything else is read.
+  requireEdge(mesh, a, b, "checkCollapse");
+  const bool link_holds = link_last || linkConditionHolds(mesh, a, b);
   const bool a_boundary = isBoundaryVertex(mesh, a), b_boundary = isBoundaryVertex(mesh, b);
   // Newer onto older: a cut point goes back onto an original vertex, and the older part of the
   // mesh, which other data has seen longer, stays where it was.

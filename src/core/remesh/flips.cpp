@@ -54,14 +54,8 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
   // The edge's tets, at most kMaxEdgeRing of them (a longer ring is never flipped). The queue asks
   // this of every edge of every tet it works: nothing here allocates until a flip is found.
   std::array<int, kMaxEdgeRing> ring_tets;
-  int n = 0;
-  for (int t : mesh.vertexTets(a)) {
-    const TetVerts& tv = mesh.tet(t);
-    if (std::find(tv.begin(), tv.end(), b) == tv.end()) continue;
-    if (n == kMaxEdgeRing) return false;
-    ring_tets[n++] = t;
-  }
-  if (n < 3 || isBoundaryEdge(mesh, a, b)) return false;
+  const int n = mesh.edgeTets(a, b, ring_tets.data(), kMaxEdgeRing);
+  if (n < 3 || n > kMaxEdgeRing || isBoundaryEdge(mesh, a, b)) return false;
   // The ring: around an interior edge every tet shares its two faces through ab with the next
   // one, so the tets' other two vertices chain into one cycle r0 ... r(n-1).
   std::array<std::array<int, 2>, kMaxEdgeRing> pairs;
@@ -160,14 +154,7 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
 bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double min_gain,
             FlipCandidate* out, double length_floor) {
   std::array<int, 2> pair_tets;  // the edge's tets: exactly two
-  int count = 0;
-  for (int t : mesh.vertexTets(a)) {
-    const TetVerts& tv = mesh.tet(t);
-    if (std::find(tv.begin(), tv.end(), b) == tv.end()) continue;
-    if (count == 2) return false;
-    pair_tets[count++] = t;
-  }
-  if (count != 2) return false;
+  if (mesh.edgeTets(a, b, pair_tets.data(), 2) != 2) return false;
   // The apex x both tets share across their common face abx, and each tet's own vertex c, d.
   const TetVerts &t0 = mesh.tet(pair_tets[0]), &t1 = mesh.tet(pair_tets[1]);
   int x = -1, c = -1, d = -1;

@@ -149,19 +149,22 @@ bool isBoundaryEdge(const TetMesh& mesh, int a, int b) {
   return false;
 }
 
-bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
+void requireEdge(const TetMesh& mesh, int a, int b, const char* who) {
   const bool live = a >= 0 && b >= 0 && a < mesh.vertexSlots() && b < mesh.vertexSlots() &&
                     a != b && mesh.vertexAlive(a) && mesh.vertexAlive(b);
+  if (!live || !mesh.hasEdge(a, b))
+    throw std::invalid_argument(std::string(who) + ": (" + std::to_string(a) + ", " +
+                                std::to_string(b) + ") is not an edge of the mesh");
+}
+
+bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
+  requireEdge(mesh, a, b, "linkConditionHolds");
   thread_local Scratch scratch;
   Scratch& s = scratch;  // the thread's copy looked up once (in a shared library each lookup of
                          // a thread_local is a call)
   s.star.clear();
-  if (live)
-    for (int t : mesh.vertexTets(a))
-      if (localIndex(mesh.tet(t), b) >= 0) s.star.push_back(t);
-  if (s.star.empty())
-    throw std::invalid_argument("linkConditionHolds: (" + std::to_string(a) + ", " +
-                                std::to_string(b) + ") is not an edge of the mesh");
+  for (int t : mesh.vertexTets(a))
+    if (localIndex(mesh.tet(t), b) >= 0) s.star.push_back(t);
   // Lk(ab) lies in Lk(a) ∩ Lk(b) at every level, so each level holds exactly when the
   // intersection is no larger. A simplex in both links has all its vertices in both, so only
   // the parts of the links on the common vertices are built.
