@@ -1,7 +1,9 @@
 // Q = 3 r_in / R_circ pinned on tets whose radii are known in closed form.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <cstdlib>
 
 #include "tissue_cut/mesh/quality.hpp"
 
@@ -38,4 +40,39 @@ TEST(Quality, DoesNotDependOnOrientationOrScale) {
   const double q = tetQuality(a, b, c, d);
   EXPECT_NEAR(tetQuality(a, b, d, c), q, 1e-14);
   EXPECT_NEAR(tetQuality(a * 1e-3, b * 1e-3, c * 1e-3, d * 1e-3), q, 1e-12);
+}
+
+TEST(Quality, AgreesWithItsRadiiOnRandomTets) {
+  // tetQuality takes Q from squared lengths in one expression; it must still be 3 r_in / R of
+  // tetInradius and tetCircumradius (written from the definitions) on any tet: random ones,
+  // needles, slivers, caps and wedges, at mesh scales from a micrometre to a metre.
+  std::srand(7);
+  auto uniform = [] { return std::rand() / static_cast<double>(RAND_MAX) - 0.5; };
+  int checked = 0;
+  for (int i = 0; i < 20000; ++i) {
+    std::array<Vec3, 4> p;
+    for (Vec3& x : p) x = Vec3(uniform(), uniform(), uniform());
+    const int shape = i % 4;  // 0: as drawn; 1: flattened (sliver); 2: needle; 3: cap
+    if (shape == 1) p[3] = 0.5 * (p[0] + p[1]) + 1e-3 * (p[3] - p[2]);
+    if (shape == 2) p[3] = p[0] + 1e-3 * (p[3] - p[0]);
+    if (shape == 3) p[3] = (p[0] + p[1] + p[2]) / 3.0 + 1e-2 * (p[3] - p[0]);
+    const double scale = std::pow(10.0, -(i % 7));
+    for (Vec3& x : p) x *= scale;
+    const double expected = std::min(1.0, 3.0 * tissue_cut::tetInradius(p[0], p[1], p[2], p[3]) /
+                                              tissue_cut::tetCircumradius(p[0], p[1], p[2], p[3]));
+    const double q = tetQuality(p[0], p[1], p[2], p[3]);
+    ASSERT_NEAR(q, expected, 1e-12 + 1e-9 * expected) << "tet " << i;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 20000);
+}
+
+TEST(Quality, DegenerateOrUndefinedTetsAreZero) {
+  const Vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0), d(0, 0, 1);
+  const double nan = std::nan("");
+  EXPECT_EQ(tetQuality(a, a, c, d), 0.0);                     // two corners on one point
+  EXPECT_EQ(tetQuality(a, b, Vec3(2, 0, 0), d), 0.0);         // three on a line
+  EXPECT_EQ(tetQuality(a, b, c, Vec3(nan, 0, 0)), 0.0);       // undefined
+  EXPECT_EQ(tetQuality(a, b, c, Vec3(HUGE_VAL, 0, 1)), 0.0);  // at infinity
+  EXPECT_GT(tetQuality(a, b, c, d), 0.0);
 }

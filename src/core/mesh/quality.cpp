@@ -33,21 +33,29 @@ double tetCircumradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
 }
 
 double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  // tetInradius and tetCircumradius written out with the volume taken once (the same operations:
-  // the same value); the remeshers ask for a few million of these a second.
-  const double vol = std::abs(signedVolume(a, b, c, d));
-  const double area = faceArea(b, c, d) + faceArea(a, c, d) + faceArea(a, b, d) + faceArea(a, b, c);
-  if (!(area > 0)) return 0.0;
-  const double r_in = 3.0 * vol / area;
-  if (!(r_in > 0) || !(vol > 0)) return 0.0;
-  const double p = (b - a).norm() * (d - c).norm();
-  const double q = (c - a).norm() * (d - b).norm();
-  const double r = (d - a).norm() * (c - b).norm();
+  // Q = 3 r_in / r_circ with r_in = 3 V / A and r_circ = sqrt(H) / (6 V) (A: the faces' total
+  // area, H: Heron's product over the three products of opposite edge lengths) is
+  // 54 V^2 / (A sqrt(H)) = 3 D^2 / (2A sqrt(H)) with D = 6 V. The remeshers ask for a few million
+  // of these a second: the four doubled face areas and the three length products are taken as
+  // square roots of squares, four at a time (Eigen's packet sqrt), and there is one division.
+  const Vec3 ab = b - a, ac = c - a, ad = d - a, bc = c - b, bd = d - b, cd = d - c;
+  const double det = ab.dot(ac.cross(ad));
+  Eigen::Array4d faces, lengths;
+  faces << bc.cross(bd).squaredNorm(), ac.cross(ad).squaredNorm(), ab.cross(ad).squaredNorm(),
+      ab.cross(ac).squaredNorm();
+  lengths << ab.squaredNorm() * cd.squaredNorm(), ac.squaredNorm() * bd.squaredNorm(),
+      ad.squaredNorm() * bc.squaredNorm(), 0.0;
+  faces = faces.sqrt();
+  lengths = lengths.sqrt();
+  const double area2 = faces.sum();
+  const double p = lengths[0], q = lengths[1], r = lengths[2];
   const double s = 0.5 * (p + q + r);
-  const double heron = std::max(0.0, s * (s - p) * (s - q) * (s - r));
-  const double r_circ = std::sqrt(heron) / (6.0 * vol);
-  if (!std::isfinite(r_circ) || !(r_circ > 0)) return 0.0;
-  return std::min(1.0, 3.0 * r_in / r_circ);
+  const double heron = s * (s - p) * (s - q) * (s - r);
+  const double det2 = det * det;
+  if (!(area2 > 0) || !(det2 > 0) || !(heron > 0)) return 0.0;
+  const double quality = 3.0 * det2 / (area2 * std::sqrt(heron));
+  if (!std::isfinite(quality)) return 0.0;
+  return std::min(1.0, quality);
 }
 
 double restQuality(const TetMesh& mesh, int t) {
