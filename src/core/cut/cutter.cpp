@@ -989,21 +989,54 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
     // segmentCrossesTriangle lets barycentric coordinates down to -1e-9 through.
     side_tol[k] = 1e-6 * longest + tol;
   }
+  // The signed distance of x from the plane of swept triangle k, computed as pointNearTriangle
+  // and segmentCrossesTriangle compute it (the same operations: the same value).
+  std::array<Vec3, 2> plane_n;
+  std::array<double, 2> plane_len;
+  for (int k = 0; k < 2; ++k) {
+    plane_n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
+    plane_len[k] = plane_n[k].norm();
+  }
+  auto planeDistance = [&](int k, const Vec3& x) {
+    return plane_len[k] > 0 ? plane_n[k].dot(x - tris[k][0]) / plane_len[k] : HUGE_VAL;
+  };
+  // Each vertex's place along the eight axes and its distances from the two planes, taken once a
+  // tick (the near tets share most of their vertices; the sweep moves none): per vertex slot,
+  // where its values are in axis_values_.
+  nextStamp(&axis_stamp_, &axis_call_, mesh_->vertexSlots());
+  if (axis_slot_.size() < axis_stamp_.size()) axis_slot_.resize(axis_stamp_.size());
+  axis_values_.clear();
+  auto slotOf = [&](int v) {
+    if (axis_stamp_[v] != axis_call_) {
+      axis_stamp_[v] = axis_call_;
+      axis_slot_[v] = static_cast<int>(axis_values_.size());
+      const Vec3& x = mesh_->current(v);
+      std::array<double, 10> at{};
+      for (int k = 0; k < 2; ++k)
+        if (usable[k])
+          for (int e = 0; e < 4; ++e) at[4 * k + e] = axes[k][e].n.dot(x) - axes[k][e].at;
+      at[8] = planeDistance(0, x);
+      at[9] = planeDistance(1, x);
+      axis_values_.push_back(at);
+    }
+    return axis_slot_[v];
+  };
   // The distance of the tet from the plane of a swept triangle it lies over (infinity: none).
   auto reach = [&](const TetVerts& tv) {
+    const std::array<int, 4> slot{slotOf(tv[0]), slotOf(tv[1]), slotOf(tv[2]), slotOf(tv[3])};
     double best = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 2; ++k) {
       if (!usable[k]) continue;
       bool over = true;
       for (int e = 1; e < 4 && over; ++e) {
         double lo = std::numeric_limits<double>::infinity();
-        for (int v : tv) lo = std::min(lo, axes[k][e].n.dot(mesh_->current(v)) - axes[k][e].at);
+        for (int i : slot) lo = std::min(lo, axis_values_[i][4 * k + e]);
         over = lo <= side_tol[k];
       }
       if (!over) continue;
       double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-      for (int v : tv) {
-        const double d = axes[k][0].n.dot(mesh_->current(v)) - axes[k][0].at;
+      for (int i : slot) {
+        const double d = axis_values_[i][4 * k];
         lo = std::min(lo, d);
         hi = std::max(hi, d);
       }
@@ -1023,17 +1056,6 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   Vec3 normal = (tris[0][1] - tris[0][0]).cross(tris[0][2] - tris[0][0]);
   if (normal.norm() <= tiny) normal = (tris[1][1] - tris[1][0]).cross(tris[1][2] - tris[1][0]);
   normal.normalize();
-  // The signed distance of x from the plane of swept triangle k, computed as pointNearTriangle
-  // and segmentCrossesTriangle compute it (the same operations: the same value).
-  std::array<Vec3, 2> plane_n;
-  std::array<double, 2> plane_len;
-  for (int k = 0; k < 2; ++k) {
-    plane_n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
-    plane_len[k] = plane_n[k].norm();
-  }
-  auto planeDistance = [&](int k, const Vec3& x) {
-    return plane_len[k] > 0 ? plane_n[k].dot(x - tris[k][0]) / plane_len[k] : HUGE_VAL;
-  };
   // Each vertex once, in the order of the tets (a second look would decide the same); one
   // farther than both bands from both planes is near neither triangle (trySnap would do nothing).
   nextStamp(&vertex_seen_, &seen_stamp_, mesh_->vertexSlots());
@@ -1042,8 +1064,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
     for (int v : tv) {
       if (vertex_seen_[v] == seen_stamp_) continue;
       vertex_seen_[v] = seen_stamp_;
-      const Vec3& x = mesh_->current(v);
-      if (std::abs(planeDistance(0, x)) > band && std::abs(planeDistance(1, x)) > band) continue;
+      const auto& at = axis_values_[axis_slot_[v]];  // a corner: reach() took its values
+      if (std::abs(at[8]) > band && std::abs(at[9]) > band) continue;
       trySnap(v, tris, normal);
     }
   // An edge can cross the swept quad only where its box meets the quad's box, and only when its
@@ -1060,9 +1082,10 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
     if ((pa.cwiseMin(pb).array() > quad_hi.array()).any() ||
         (pa.cwiseMax(pb).array() < quad_lo.array()).any())
       return false;
+    const auto &at_a = axis_values_[axis_slot_[a]], &at_b = axis_values_[axis_slot_[b]];
     for (int k = 0; k < 2; ++k) {
       if (!crossable[k]) continue;
-      const double dp = planeDistance(k, pa), dq = planeDistance(k, pb);
+      const double dp = at_a[8 + k], dq = at_b[8 + k];
       if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) return true;
     }
     return false;
