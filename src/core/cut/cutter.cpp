@@ -1073,22 +1073,26 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_);
   const Vec3 quad_lo = lo.array() + snap_distance_ - slack.array();
   const Vec3 quad_hi = hi.array() - snap_distance_ + slack.array();
-  std::array<bool, 2> crossable;
-  for (int k = 0; k < 2; ++k) crossable[k] = triangleArea(tris[k]) > tiny && plane_len[k] > 0;
+  std::array<bool, 2> has_area, crossable;
+  for (int k = 0; k < 2; ++k) {
+    has_area[k] = triangleArea(tris[k]) > tiny;
+    crossable[k] = has_area[k] && plane_len[k] > 0;
+  }
+  // The tests in order of cost (all must hold; most edges of the corners lie on one side).
   auto mayCross = [&](int a, int b) {
+    const auto &at_a = axis_values_[axis_slot_[a]], &at_b = axis_values_[axis_slot_[b]];
+    bool opposite = false;
+    for (int k = 0; k < 2 && !opposite; ++k) {
+      if (!crossable[k]) continue;
+      const double dp = at_a[8 + k], dq = at_b[8 + k];
+      opposite = (dp > 0 && dq < 0) || (dp < 0 && dq > 0);
+    }
+    if (!opposite) return false;
     if (onCut(a) || onCut(b)) return false;
     if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b)) return false;
     const Vec3 &pa = mesh_->current(a), &pb = mesh_->current(b);
-    if ((pa.cwiseMin(pb).array() > quad_hi.array()).any() ||
-        (pa.cwiseMax(pb).array() < quad_lo.array()).any())
-      return false;
-    const auto &at_a = axis_values_[axis_slot_[a]], &at_b = axis_values_[axis_slot_[b]];
-    for (int k = 0; k < 2; ++k) {
-      if (!crossable[k]) continue;
-      const double dp = at_a[8 + k], dq = at_b[8 + k];
-      if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) return true;
-    }
-    return false;
+    return !((pa.cwiseMin(pb).array() > quad_hi.array()).any() ||
+             (pa.cwiseMax(pb).array() < quad_lo.array()).any());
   };
   // The edges that may cross, in increasing order, each once (as a std::set would give them).
   std::vector<std::pair<int, int>>& edges = edge_scratch_;
@@ -1112,8 +1116,9 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
     return false;
   };
   for (const auto& [a, b] : edges) {  // mayCross() held; registering points changes none of it
-    for (const Triangle& tri : tris) {
-      if (triangleArea(tri) <= tiny) continue;
+    for (int k = 0; k < 2; ++k) {
+      if (!has_area[k]) continue;
+      const Triangle& tri = tris[k];
       double s;
       Vec3 bary;
       const Vec3 &pa = mesh_->current(a), &pb = mesh_->current(b);
