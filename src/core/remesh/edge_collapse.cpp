@@ -87,18 +87,26 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
     return check;
   }
 
-  check.worst_after = 1.0;
-  double volume_before = 0.0, volume_after = 0.0;
-  for (int t : star) volume_before += mesh.restVolume(t);
-  for (int t : star) {
-    TetVerts tv = mesh.tet(t);
-    if (contains(tv, check.survivor)) continue;  // vanishes with the edge
-    *std::find(tv.begin(), tv.end(), check.removed) = check.survivor;
-    if (!isSoundInMesh(mesh, tv)) {
+  // Every moved tet sound first (most checks stop at an inversion), then their quality and
+  // volume.
+  auto moved = [&](int t, TetVerts* tv) {
+    *tv = mesh.tet(t);
+    if (contains(*tv, check.survivor)) return false;  // vanishes with the edge
+    *std::find(tv->begin(), tv->end(), check.removed) = check.survivor;
+    return true;
+  };
+  TetVerts tv;
+  for (int t : star)
+    if (moved(t, &tv) && !isSoundInMesh(mesh, tv)) {
       check.refusal = CollapseRefusal::kInversion;
       check.worst_after = 0.0;  // a flattened tet has Q = 0
       return check;
     }
+  check.worst_after = 1.0;
+  double volume_before = 0.0, volume_after = 0.0;
+  for (int t : star) volume_before += mesh.restVolume(t);
+  for (int t : star) {
+    if (!moved(t, &tv)) continue;
     check.worst_after = std::min(check.worst_after, tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]),
                                                                mesh.rest(tv[2]), mesh.rest(tv[3])));
     volume_after +=
