@@ -287,3 +287,32 @@ TEST(Collapse, TheTicksDeadlineLeavesTheQueueOnlyTheTimeTheTickHasLeft) {
     std::printf("%s: work %d\n", c.what, work(s));
   }
 }
+
+TEST(Collapse, SoundTetIsVolumeOverTheLongestEdgeCubedAtEveryScale) {
+  // isSoundTet compares squares; it must answer as vol > kMinCollapseRelativeVolume * L^3 taken
+  // from the definition: tets just above and just below the threshold, flipped, flat or
+  // undefined, at scales from a micrometre to a metre.
+  const Vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+  const double longest = std::sqrt(2.0);  // bc, while the apex stays low over the corner a
+  const double height = 6.0 * kMinCollapseRelativeVolume * std::pow(longest, 3);  // vol = h / 6
+  int sound = 0, unsound = 0;
+  for (int i = 0; i < 6; ++i) {
+    const double scale = std::pow(10.0, -i);
+    for (double factor : {1.001, 1.1, 10.0, 0.999, 0.9, 0.0, -1.1}) {
+      const Vec3 d(0.2, 0.2, factor * height);
+      const double vol = signedVolume(a, b, c, d);
+      const double expected = vol > kMinCollapseRelativeVolume * std::pow(longest, 3);
+      EXPECT_EQ(isSoundTet(a * scale, b * scale, c * scale, d * scale), expected)
+          << "scale " << scale << " factor " << factor;
+      const double flipped = -vol > kMinCollapseRelativeVolume * std::pow(longest, 3);
+      EXPECT_EQ(isSoundTet(a * scale, c * scale, b * scale, d * scale), flipped)
+          << "flipped, scale " << scale << " factor " << factor;
+      (expected ? sound : unsound) += 1;
+      (flipped ? sound : unsound) += 1;
+    }
+  }
+  EXPECT_EQ(sound, 24);  // 1.001, 1.1 and 10 the right way round, -1.1 flipped
+  EXPECT_EQ(unsound, 60);
+  EXPECT_FALSE(isSoundTet(a, b, c, Vec3(std::nan(""), 0, 1)));
+  EXPECT_FALSE(isSoundTet(a, b, c, Vec3(0, 0, HUGE_VAL)));
+}

@@ -144,12 +144,13 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
 // made by a cut is not refused for being small.
 bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
   const Vec3* p[4] = {&p0, &p1, &p2, &p3};
-  // One square root: it keeps the order of its arguments, so the root of the largest squared
-  // length is the largest length, to the bit.
+  // vol > k L^3 with vol > 0, compared as squares: no square root (the remeshers ask for
+  // hundreds of thousands of these a second).
   double longest2 = 0.0;
   for (const auto& e : kTetEdge) longest2 = std::max(longest2, (*p[e[0]] - *p[e[1]]).squaredNorm());
-  const double longest = std::sqrt(longest2);
-  return signedVolume(p0, p1, p2, p3) > kMinCollapseRelativeVolume * longest * longest * longest;
+  const double vol = signedVolume(p0, p1, p2, p3);
+  constexpr double k2 = kMinCollapseRelativeVolume * kMinCollapseRelativeVolume;
+  return vol > 0.0 && vol * vol > k2 * longest2 * longest2 * longest2;
 }
 
 bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv) {
