@@ -254,13 +254,13 @@ class Cutter {
   unsigned region_call_ = 0, check_call_ = 0;
   std::vector<unsigned char> split_state_;
   std::vector<unsigned> vertex_seen_;  // per vertex slot: seen_stamp_ when the sweep saw it
+  unsigned seen_stamp_ = 0;
   // sweep()'s per-tick values of vertices along the swept triangles' axes and from their planes:
   // per vertex slot, the tick that took them and their place in axis_values_.
   std::vector<unsigned> axis_stamp_;
   unsigned axis_call_ = 0;
   std::vector<int> axis_slot_;
   std::vector<std::array<double, 10>> axis_values_;
-  unsigned seen_stamp_ = 0;
   std::vector<std::array<int, 3>> face_scratch_;
 };
 
