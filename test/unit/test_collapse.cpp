@@ -301,10 +301,10 @@ TEST(Collapse, SoundTetIsVolumeOverTheLongestEdgeCubedAtEveryScale) {
     for (double factor : {1.001, 1.1, 10.0, 0.999, 0.9, 0.0, -1.1}) {
       const Vec3 d(0.2, 0.2, factor * height);
       const double vol = signedVolume(a, b, c, d);
-      const double expected = vol > kMinCollapseRelativeVolume * std::pow(longest, 3);
+      const bool expected = vol > kMinCollapseRelativeVolume * std::pow(longest, 3);
       EXPECT_EQ(isSoundTet(a * scale, b * scale, c * scale, d * scale), expected)
           << "scale " << scale << " factor " << factor;
-      const double flipped = -vol > kMinCollapseRelativeVolume * std::pow(longest, 3);
+      const bool flipped = -vol > kMinCollapseRelativeVolume * std::pow(longest, 3);
       EXPECT_EQ(isSoundTet(a * scale, c * scale, b * scale, d * scale), flipped)
           << "flipped, scale " << scale << " factor " << factor;
       (expected ? sound : unsound) += 1;

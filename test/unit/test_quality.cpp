@@ -45,7 +45,7 @@ TEST(Quality, DoesNotDependOnOrientationOrScale) {
 TEST(Quality, AgreesWithItsRadiiOnRandomTets) {
   // tetQuality takes Q from squared lengths in one expression; it must still be 3 r_in / R of
   // tetInradius and tetCircumradius (written from the definitions) on any tet: random ones,
-  // needles, slivers, caps and wedges, at mesh scales from a micrometre to a metre.
+  // needles, slivers and caps, at mesh scales from a micrometre to a metre.
   std::srand(7);
   auto uniform = [] { return std::rand() / static_cast<double>(RAND_MAX) - 0.5; };
   int checked = 0;

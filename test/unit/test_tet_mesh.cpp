@@ -357,7 +357,11 @@ TEST(TetMesh, HasEdgeAnswersAsTheEdgesStar) {
     for (int v = 0; v < mesh.vertexSlots(); ++v) {
       if (u == v || !mesh.vertexAlive(u) || !mesh.vertexAlive(v)) continue;
       ++pairs;
-      const std::vector<int> star = mesh.edgeTets(u, v);
+      // The star from its definition: u's tets that hold v, in u's order.
+      std::vector<int> star;
+      for (int t : mesh.vertexTets(u))
+        if (localIndex(mesh.tet(t), v) >= 0) star.push_back(t);
+      ASSERT_EQ(mesh.edgeTets(u, v), star) << u << "-" << v;
       const bool edge = !star.empty();
       ASSERT_EQ(mesh.hasEdge(u, v), edge) << u << "-" << v;
       // The bounded form: the whole count, the first two written in the same order.

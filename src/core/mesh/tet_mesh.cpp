@@ -211,10 +211,8 @@ TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
 }
 
 std::vector<int> TetMesh::edgeTets(int a, int b) const {
-  std::vector<int> out;
-  out.reserve(8);  // a typical star: one allocation
-  for (int t : vertex_tets_[a])
-    if (contains(tets_[t], b)) out.push_back(t);
+  std::vector<int> out(vertex_tets_[a].size());  // the star is among a's tets
+  out.resize(edgeTets(a, b, out.data(), static_cast<int>(out.size())));
   return out;
 }
 

@@ -162,9 +162,8 @@ bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
   thread_local Scratch scratch;
   Scratch& s = scratch;  // the thread's copy looked up once (in a shared library each lookup of
                          // a thread_local is a call)
-  s.star.clear();
-  for (int t : mesh.vertexTets(a))
-    if (localIndex(mesh.tet(t), b) >= 0) s.star.push_back(t);
+  s.star.resize(mesh.vertexTets(a).size());  // the edge's star is among a's tets
+  s.star.resize(mesh.edgeTets(a, b, s.star.data(), static_cast<int>(s.star.size())));
   // Lk(ab) lies in Lk(a) ∩ Lk(b) at every level, so each level holds exactly when the
   // intersection is no larger. A simplex in both links has all its vertices in both, so only
   // the parts of the links on the common vertices are built.
