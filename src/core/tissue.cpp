@@ -87,7 +87,7 @@ void Tissue::reset() {
   // edges it crosses; flips make only edges it would know so (without this rule, 20 passes
   // back and forth with physics re-cut 5,100 tets instead of about 400).
   collapse_->setFlips(true, [this](int u, int v) { return cutter_->mayJoin(u, v); });
-  cut_region_.assign(mesh_.tetSlots(), 0);
+  assignSlots(&cut_region_, mesh_.tetSlots(), {});
   busy_epoch_ = -1;
   physics_steps_ = 0;
   physics_slow_us_ = 0.0;
@@ -119,14 +119,13 @@ void Tissue::applyChange(const ChangeRecord& change) {
   // so read the removed flags first (by slot, stamped for this record: no map, no allocation
   // once grown; a slot removed twice keeps the 0 its first removal left, as a map did).
   nextStamp(&removed_seen_, &removed_stamp_, mesh_.tetSlots());
-  if (removed_flag_.size() < removed_seen_.size()) removed_flag_.resize(removed_seen_.size(), 0);
+  growSlots(&removed_flag_, removed_seen_.size(), {});
   for (int t : change.removed_tets) {
     removed_seen_[t] = removed_stamp_;
     removed_flag_[t] = cut_region_[t];
     cut_region_[t] = 0;
   }
-  if (static_cast<int>(cut_region_.size()) < mesh_.tetSlots())
-    cut_region_.resize(mesh_.tetSlots(), 0);
+  growSlots(&cut_region_, mesh_.tetSlots(), {});
   for (std::size_t i = 0; i < change.added_tets.size(); ++i) {
     const int from = change.added_from[i];
     const bool known = from >= 0 && from < static_cast<int>(removed_seen_.size()) &&

@@ -41,7 +41,7 @@ void Cutter::reset() {
   counts_ = CutCounts{};
   stateChanged();
   separated_at_ = -1;
-  pending_of_.assign(mesh_->tetSlots(), -1);
+  assignSlots(&pending_of_, mesh_->tetSlots(), -1);
   double sum = 0.0;
   const auto edges = mesh_->edges();
   for (const auto& [a, b] : edges) sum += (mesh_->rest(a) - mesh_->rest(b)).norm();
@@ -240,8 +240,7 @@ bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>
     if (refusal_.empty()) refusal_ = e.what();
     return false;
   }
-  if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
-    pending_of_.resize(mesh_->tetSlots(), -1);
+  growSlots(&pending_of_, mesh_->tetSlots(), -1);
   for (int t : remove) pending_of_[t] = -1;
   stateChanged();
   refreshGrid(local);
@@ -268,8 +267,7 @@ void Cutter::follow(const ChangeRecord& change) {
   // let a waiting vertex split.
   if (!change.empty()) ++epoch_;
   noteChanged(change);
-  if (pending_of_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
-    pending_of_.resize(mesh_->tetSlots(), -1);
+  growSlots(&pending_of_, mesh_->tetSlots(), -1);
   for (int t : change.removed_tets) pending_of_[t] = -1;
   for (const auto& [gone, survivor] : change.merged_vertices) {
     if (static_cast<std::size_t>(gone) >= wound_flag_.size() || !wound_flag_[gone]) continue;
@@ -618,7 +616,7 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
   };
   // Each star tet's place in the star, by tet slot (valid where star_stamp_ is this call's).
   nextStamp(&star_stamp_, &star_call_, mesh_->tetSlots());
-  if (star_place_.size() < star_stamp_.size()) star_place_.resize(star_stamp_.size(), 0);
+  growSlots(&star_place_, star_stamp_.size(), {});
   for (int i = 0; i < n; ++i) {
     star_stamp_[star[i]] = star_call_;
     star_place_[star[i]] = i;
@@ -658,12 +656,9 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   // boundary waits (it is tried again on later ticks, when the cut around it is complete).
   // The groups depend on the mesh and the marks only: taken once. Each tet of a splitting vertex's
   // star records, at that vertex's corner, the group it will use (-1: the vertex does not split).
-  if (corner_group_.size() < static_cast<std::size_t>(mesh_->tetSlots())) {
-    corner_group_.resize(mesh_->tetSlots(), {-1, -1, -1, -1});
-    open_face_.resize(mesh_->tetSlots(), 0);
-  }
-  if (split_state_.size() < static_cast<std::size_t>(mesh_->vertexSlots()))
-    split_state_.resize(mesh_->vertexSlots(), 0);
+  growSlots(&corner_group_, mesh_->tetSlots(), {-1, -1, -1, -1});
+  growSlots(&open_face_, mesh_->tetSlots(), {});
+  growSlots(&split_state_, mesh_->vertexSlots(), {});
   constexpr unsigned char kSplits = 1, kHeld = 2;  // split_state_: a candidate, held back
   std::vector<int> splitting, stars;
   for (int v : verts) {
@@ -1004,7 +999,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   // tick (the near tets share most of their vertices; the sweep moves none): per vertex slot,
   // where its values are in axis_values_.
   nextStamp(&axis_stamp_, &axis_call_, mesh_->vertexSlots());
-  if (axis_slot_.size() < axis_stamp_.size()) axis_slot_.resize(axis_stamp_.size());
+  growSlots(&axis_slot_, axis_stamp_.size());
   axis_values_.clear();
   auto slotOf = [&](int v) {
     if (axis_stamp_[v] != axis_call_) {
@@ -1185,7 +1180,7 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
 }
 
 void Cutter::setWoundFlag(int v, unsigned char flag) {
-  if (wound_flag_.size() <= static_cast<std::size_t>(v)) wound_flag_.resize(v + 1, 0);
+  growSlots(&wound_flag_, static_cast<std::size_t>(v) + 1, {});
   wound_flag_[v] |= flag;
 }
 

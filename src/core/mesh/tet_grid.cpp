@@ -70,10 +70,8 @@ void TetGrid::insert(const TetMesh& mesh, int t) {
   const Box box = boxOf(mesh, t, &f);
   const auto [i0, j0, k0] = f.first;
   const auto [i1, j1, k1] = f.last;
-  if (t >= static_cast<int>(filed_.size())) {
-    filed_.resize(t + 1);
-    boxes_.resize(t + 1);
-  }
+  growSlots(&filed_, static_cast<std::size_t>(t) + 1);
+  growSlots(&boxes_, static_cast<std::size_t>(t) + 1);
   filed_[t] = f;
   boxes_[t] = box;
   for (int k = k0; k <= k1; ++k)
@@ -194,11 +192,12 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
   for (auto& c : cells_) c.clear();
   cells_.resize(cells);
   entries_ = 0;
-  filed_.assign(mesh.tetSlots(), Filed{});
-  boxes_.assign(mesh.tetSlots(), Box{});
+  assignSlots(&filed_, mesh.tetSlots(), Filed{});
+  assignSlots(&boxes_, mesh.tetSlots(), Box{});
   for (int t = 0; t < mesh.tetSlots(); ++t)
     if (mesh.tetAlive(t)) insert(mesh, t);
   entries_at_build_ = entries_;
+  built_positions_.reserve(mesh.currentPositions().capacity());
   built_positions_ = mesh.currentPositions();
   drift_bound_ = 0.0;
 }
@@ -207,7 +206,7 @@ void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change) {
   for (int t : change.added_tets)
     if (mesh.tetAlive(t)) insert(mesh, t);
   for (int v : change.added_vertices) {
-    if (v >= static_cast<int>(built_positions_.size())) built_positions_.resize(v + 1);
+    growSlots(&built_positions_, static_cast<std::size_t>(v) + 1, Vec3::Zero());
     built_positions_[v] = mesh.current(v);
   }
 }

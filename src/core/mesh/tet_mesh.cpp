@@ -152,19 +152,21 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
 TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
   if (V.cols() != 3) throw std::invalid_argument("TetMesh: V must have 3 columns");
   if (T.size() > 0 && T.cols() != 4) throw std::invalid_argument("TetMesh: T must have 4 columns");
+  // Slots to spare (see slotCapacity()): cutting adds vertices and tets without reallocating.
   const int nv = static_cast<int>(V.rows());
-  rest_.resize(nv);
+  assignSlots(&rest_, nv, Vec3::Zero());
   for (int i = 0; i < nv; ++i) rest_[i] = V.row(i).transpose();
+  current_.reserve(rest_.capacity());
   current_ = rest_;
-  velocity_.assign(nv, Vec3::Zero());
-  vertex_alive_.assign(nv, 1);
-  vertex_tets_.assign(nv, {});
+  assignSlots(&velocity_, nv, Vec3::Zero());
+  assignSlots(&vertex_alive_, nv, static_cast<unsigned char>(1));
+  assignSlots(&vertex_tets_, nv);
   num_vertices_ = nv;
 
   const int nt = static_cast<int>(T.rows());
-  tets_.resize(nt);
-  neighbors_.assign(nt, {-1, -1, -1, -1});
-  tet_alive_.assign(nt, 1);
+  assignSlots(&tets_, nt);
+  assignSlots(&neighbors_, nt, {-1, -1, -1, -1});
+  assignSlots(&tet_alive_, nt, static_cast<unsigned char>(1));
   num_tets_ = nt;
   for (int t = 0; t < nt; ++t) {
     TetVerts tv{T(t, 0), T(t, 1), T(t, 2), T(t, 3)};
@@ -492,7 +494,7 @@ void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, Change
   // The star's slots marked in replaceTets' scratch (this call's stamp), with their places.
   nextStamp(&removing_, &removing_stamp_, tets_.size());
   std::vector<int>& place = move_place_;
-  if (place.size() < tets_.size()) place.resize(tets_.size(), 0);
+  growSlots(&place, tets_.size(), 0);
   for (int i = 0; i < n; ++i) {
     removing_[star[i]] = removing_stamp_;
     place[star[i]] = i;

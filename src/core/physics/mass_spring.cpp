@@ -97,8 +97,8 @@ MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
     : mesh_(mesh), params_(params) {
   makeTeam();
   resize();
-  tet_copy_.assign(mesh_->tetSlots(), {-1, -1, -1, -1});
-  tet_volume_.assign(mesh_->tetSlots(), 0.0);
+  assignSlots(&tet_copy_, mesh_->tetSlots(), {-1, -1, -1, -1});
+  assignSlots(&tet_volume_, mesh_->tetSlots(), 0.0);
   for (int t = 0; t < mesh_->tetSlots(); ++t)
     if (mesh_->tetAlive(t)) {
       tet_copy_[t] = mesh_->tet(t);
@@ -108,6 +108,7 @@ MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
   double sum = 0.0;
   for (const auto& [a, b] : edges) sum += (mesh_->rest(a) - mesh_->rest(b)).norm();
   reference_length_ = edges.empty() ? 0.0 : sum / edges.size();
+  springs_.reserve(slotCapacity(edges.size()));
   updateMassesAndSprings(liveVertices(), edges);
   // The loaded mesh's 99th percentile of k / (lighter end's mass), per unit of E / density (see
   // strongThreshold()).
@@ -167,11 +168,12 @@ void MassSpring::makeTeam() {
 
 void MassSpring::resize() {
   const std::size_t n = mesh_->vertexSlots();
-  mass_.resize(n, 0.0);
-  fixed_.resize(n, 0);
-  warm_.resize(n, Vec3::Zero());
-  warm_prev_.resize(n, Vec3::Zero());  // the same slots: every step extrapolates (see follow())
-  warm_prev2_.resize(n, Vec3::Zero());
+  resizeSlots(&mass_, n, 0.0);
+  resizeSlots(&fixed_, n, static_cast<unsigned char>(0));
+  resizeSlots(&warm_, n, Vec3::Zero());
+  // The same slots: every step extrapolates (see follow()).
+  resizeSlots(&warm_prev_, n, Vec3::Zero());
+  resizeSlots(&warm_prev2_, n, Vec3::Zero());
 }
 
 void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
@@ -216,7 +218,7 @@ void MassSpring::setSpring(int a, int b, double volume) {
   if (scale > 0) k = std::clamp(k, kMinStiffness * scale, kMaxStiffness * scale);
   const Spring s{std::min(a, b), std::max(a, b), length, k};
   if (found < 0) {
-    if (static_cast<int>(springs_from_.size()) <= s.a) springs_from_.resize(s.a + 1);
+    growSlots(&springs_from_, s.a + 1);
     springs_from_[s.a].push_back({s.b, static_cast<int>(springs_.size())});
     springs_.push_back(s);
   } else {
@@ -260,8 +262,7 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
 
 void MassSpring::follow(const ChangeRecord& change) {
   resize();
-  if (tet_copy_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
-    tet_copy_.resize(mesh_->tetSlots(), {-1, -1, -1, -1});
+  growSlots(&tet_copy_, mesh_->tetSlots(), {-1, -1, -1, -1});
   // The vertices and edges of the tets that went or came, each once, in increasing order. A
   // tick's record of collapses and smoothing moves lists each edge about ten times (the tets
   // around it, removed and added again): sorting them all took a third of the follow. The
@@ -287,7 +288,7 @@ void MassSpring::follow(const ChangeRecord& change) {
   std::sort(vertices.begin(), vertices.end());
   const int n = static_cast<int>(vertices.size());
   if (n <= kEdgeMatrixMax) {
-    if (follow_place_.size() < follow_seen_.size()) follow_place_.resize(follow_seen_.size());
+    growSlots(&follow_place_, follow_seen_.size());
     for (int i = 0; i < n; ++i) follow_place_[vertices[i]] = i;
     follow_matrix_.assign(static_cast<std::size_t>(n) * n, 0);
     forEachTet([&](const TetVerts& tv) {
@@ -308,8 +309,7 @@ void MassSpring::follow(const ChangeRecord& change) {
     std::sort(edges.begin(), edges.end());
     edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   }
-  if (tet_volume_.size() < static_cast<std::size_t>(mesh_->tetSlots()))
-    tet_volume_.resize(mesh_->tetSlots(), 0.0);
+  growSlots(&tet_volume_, mesh_->tetSlots(), 0.0);
   for (int t : change.removed_tets) tet_copy_[t] = {-1, -1, -1, -1};
   for (int t : change.added_tets) {
     tet_copy_[t] = mesh_->tet(t);
@@ -622,8 +622,8 @@ void MassSpring::buildClusters() {
   clusters_stale_ = false;
   for (const Cluster& c : clusters_)
     for (int k = 0; k < c.size; ++k) cluster_of_[c.vertices[k]] = -1;
-  cluster_of_.resize(mesh_->vertexSlots(), -1);
-  cluster_diag_.resize(mesh_->vertexSlots());
+  resizeSlots(&cluster_of_, mesh_->vertexSlots(), -1);
+  resizeSlots(&cluster_diag_, mesh_->vertexSlots());
   clusters_.clear();
   auto& order = strong_order_;  // capacity kept
   order.clear();
@@ -761,7 +761,7 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
             [](const auto& x, const auto& y) { return x.second < y.second; });
   // Their springs, each once, and their neighbours.
   nextStamp(&local_seen_, &local_stamp_, n);
-  if (local_index_.size() < local_seen_.size()) local_index_.resize(local_seen_.size());
+  growSlots(&local_index_, local_seen_.size());
   local_vertices_.clear();
   auto place = [&](int v) {
     local_seen_[v] = local_stamp_;
@@ -864,19 +864,20 @@ bool MassSpring::stepImplicit(double dt) {
   const int n = mesh_->vertexSlots();
   const int parts = numThreads();
   mass_damping_ = 1.0 + dt * params_.damping;
-  for (auto* v : {&b_, &r_, &z_, &p_, &ap_, &dv_}) v->resize(n);
-  inv_diag_.resize(n);
-  held_.resize(n);
-  blocks_.resize(springs_.size());
-  ends_.resize(springs_.size());
-  packed_at_.resize(springs_.size());
+  // Sized with slots to spare (see slotCapacity()): cuts add vertices and springs.
+  for (auto* v : {&b_, &r_, &z_, &p_, &ap_, &dv_}) resizeSlots(v, n, Vec3::Zero());
+  resizeSlots(&inv_diag_, n);
+  resizeSlots(&held_, n);
+  resizeSlots(&blocks_, springs_.size());
+  resizeSlots(&ends_, springs_.size());
+  resizeSlots(&packed_at_, springs_.size());
   packed_end_.resize(parts);
   acc_.resize(parts);
   start_acc_.resize(parts);
   diag_acc_.resize(parts);
-  for (auto& e : acc_) e.resize(n, Vec3::Zero());
-  for (auto& e : start_acc_) e.resize(n, Vec3::Zero());
-  for (auto& e : diag_acc_) e.resize(n, Block{0, 0, 0, 0, 0, 0});
+  for (auto& e : acc_) resizeSlots(&e, n, Vec3::Zero());
+  for (auto& e : start_acc_) resizeSlots(&e, n, Vec3::Zero());
+  for (auto& e : diag_acc_) resizeSlots(&e, n, Block{0, 0, 0, 0, 0, 0});
 
   // The warm start: the last steps' answers extrapolated (the velocity change varies smoothly
   // from step to step; 16.2 -> 13.1 CG iterations a step on the 20k organ while it is cut),
@@ -1089,8 +1090,8 @@ std::string MassSpring::step(double dt) {
   ++steps_;
   resize();
   const int n = mesh_->vertexSlots();
-  x0_.resize(n);  // capacity kept: no allocation once grown
-  inertia_.resize(n);
+  resizeSlots(&x0_, n, Vec3::Zero());  // capacity kept: no allocation once grown
+  resizeSlots(&inertia_, n, 0.0);
   partial_.resize(numThreads());
   // The positions to roll back to; the mass and the live vertices, for the inertia floor.
   parallel([&](int part) {

@@ -51,8 +51,7 @@ void CollapseQueue::queueTet(int t) {
   if (!mesh_->tetAlive(t)) return;
   const TetVerts& tv = mesh_->tet(t);
   const long long stamp = stampOf(tv);
-  if (static_cast<int>(queued_.size()) < mesh_->tetSlots())
-    queued_.resize(mesh_->tetSlots(), {TetVerts{-1, -1, -1, -1}, -1});
+  growSlots(&queued_, mesh_->tetSlots(), {TetVerts{-1, -1, -1, -1}, -1});
   if (queued_[t].first == tv && queued_[t].second == stamp) return;  // already queued as it is
   const double q = restQuality(*mesh_, t);
   if (!(q < tau_)) return;
@@ -62,8 +61,7 @@ void CollapseQueue::queueTet(int t) {
 
 void CollapseQueue::touched(int s, const std::function<bool(int)>& created_by_cut) {
   // Everything around s changed: old entries there go stale, its bad tets requeue.
-  if (static_cast<int>(vertex_stamp_.size()) < mesh_->vertexSlots())
-    vertex_stamp_.resize(mesh_->vertexSlots(), 0);
+  growSlots(&vertex_stamp_, mesh_->vertexSlots(), {});
   // Each vertex of its star once (sorted and made unique in a kept buffer: no allocation).
   std::vector<int>& around = around_scratch_;
   around.clear();
@@ -313,8 +311,7 @@ void CollapseQueue::moveGhosts(int removed, int survivor) {
 bool CollapseQueue::smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
                               ChangeRecord* change, const std::function<bool()>& stop,
                               bool* stopped) {
-  if (static_cast<int>(moves_.size()) < mesh_->vertexSlots())
-    moves_.resize(mesh_->vertexSlots(), 0);
+  growSlots(&moves_, mesh_->vertexSlots(), {});
   for (int v : tv) {
     if ((pinned_ && pinned_(v)) || moves_[v] >= kMaxMoves || alreadyRefused(v, -1)) continue;
     if (stop()) {

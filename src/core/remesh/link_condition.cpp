@@ -59,7 +59,7 @@ struct Scratch {
   std::vector<Triangle> ta, tb;
   // Three fresh mark values: now (a neighbour of a), now + 1 (of both), now + 2 (in Lk(ab)).
   void begin(int slots) {
-    if (static_cast<int>(mark.size()) < slots) mark.resize(slots, 0);
+    growSlots(&mark, slots, 0u);
     if (now > ~0u - 8) {
       std::fill(mark.begin(), mark.end(), 0);
       now = 0;
