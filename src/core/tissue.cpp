@@ -76,6 +76,7 @@ void Tissue::reset() {
   cut.max_jump = config_.cut.max_jump;
   cutter_ = std::make_unique<Cutter>(&mesh_, cut);
   physics_ = std::make_unique<MassSpring>(&mesh_, massSpringParams(config_));
+  if (config_.physics.enabled) physics_->prepare(1.0 / config_.rate);
   collapse_ =
       std::make_unique<CollapseQueue>(&mesh_, config_.collapse.tau, config_.collapse.budget_us);
   if (clock_) collapse_->setBudgetClock(clock_);
@@ -110,6 +111,7 @@ std::string Tissue::reconfigure(const Config& c) {
   collapse_->setTau(c.collapse.tau);
   collapse_->setBudget(c.collapse.budget_us);
   physics_->setParams(massSpringParams(c));
+  if (c.physics.enabled) physics_->prepare(1.0 / c.rate);
   config_ = c;
   return "";
 }

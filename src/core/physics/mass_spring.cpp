@@ -853,18 +853,23 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   ++local_presolves_;
 }
 
-bool MassSpring::stepImplicit(double dt) {
-  // Linearly-implicit backward Euler: (M (1 + h alpha) + h^2 K) dv = h (f0 + h K v0), solved by
-  // CG preconditioned by block-Jacobi, with the clusters' whole blocks on their vertices (see
-  // buildClusters()). Every loop runs in numThreads() parts: vertex loops over
-  // ranges of vertices, spring loops over ranges of springs, each part summing into its own
-  // buffer (the parts' buffers are added in a fixed order, so a step's result does not depend on
-  // timing). The vertex loops work through local pointers and copies of the scalars: through the
-  // members and the captured references the compiler reloaded them after every store.
+void MassSpring::prepare(double dt) {
+  resize();
+  sizeStepBuffers();
+  if (!params_.implicit || !(dt > 0)) return;
+  if (dt != strong_dt_) rescanStrong(dt);
+  if (clusters_stale_ || static_cast<int>(cluster_of_.size()) != mesh_->vertexSlots())
+    buildClusters();
+}
+
+void MassSpring::sizeStepBuffers() {
+  // Sized with slots to spare (see slotCapacity()): cuts add vertices and springs.
   const int n = mesh_->vertexSlots();
   const int parts = numThreads();
-  mass_damping_ = 1.0 + dt * params_.damping;
-  // Sized with slots to spare (see slotCapacity()): cuts add vertices and springs.
+  resizeSlots(&x0_, n, Vec3::Zero());
+  resizeSlots(&inertia_, n, 0.0);
+  partial_.resize(parts);
+  if (!params_.implicit) return;
   for (auto* v : {&b_, &r_, &z_, &p_, &ap_, &dv_}) resizeSlots(v, n, Vec3::Zero());
   resizeSlots(&inv_diag_, n);
   resizeSlots(&held_, n);
@@ -878,6 +883,19 @@ bool MassSpring::stepImplicit(double dt) {
   for (auto& e : acc_) resizeSlots(&e, n, Vec3::Zero());
   for (auto& e : start_acc_) resizeSlots(&e, n, Vec3::Zero());
   for (auto& e : diag_acc_) resizeSlots(&e, n, Block{0, 0, 0, 0, 0, 0});
+}
+
+bool MassSpring::stepImplicit(double dt) {
+  // Linearly-implicit backward Euler: (M (1 + h alpha) + h^2 K) dv = h (f0 + h K v0), solved by
+  // CG preconditioned by block-Jacobi, with the clusters' whole blocks on their vertices (see
+  // buildClusters()). Every loop runs in numThreads() parts: vertex loops over
+  // ranges of vertices, spring loops over ranges of springs, each part summing into its own
+  // buffer (the parts' buffers are added in a fixed order, so a step's result does not depend on
+  // timing). The vertex loops work through local pointers and copies of the scalars: through the
+  // members and the captured references the compiler reloaded them after every store.
+  const int n = mesh_->vertexSlots();
+  const int parts = numThreads();
+  mass_damping_ = 1.0 + dt * params_.damping;
 
   // The warm start: the last steps' answers extrapolated (the velocity change varies smoothly
   // from step to step; 16.2 -> 13.1 CG iterations a step on the 20k organ while it is cut),
@@ -1089,10 +1107,8 @@ std::string MassSpring::step(double dt) {
   } timer{start, &time_ms_};
   ++steps_;
   resize();
+  sizeStepBuffers();  // capacity kept: no allocation once grown
   const int n = mesh_->vertexSlots();
-  resizeSlots(&x0_, n, Vec3::Zero());  // capacity kept: no allocation once grown
-  resizeSlots(&inertia_, n, 0.0);
-  partial_.resize(numThreads());
   // The positions to roll back to; the mass and the live vertices, for the inertia floor.
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
