@@ -143,7 +143,11 @@ class Cutter {
   /// Splits the vertices of `touched`, and the waiting ones near a change since the last call (all
   /// of them with `all_waiting`), where the boundary stays a 2-manifold; the others wait.
   void separate(const std::vector<int>& touched, bool all_waiting, ChangeRecord* change);
-  std::vector<std::vector<int>> groupsAround(int v) const;
+  /// The groups of v's star: its tets joined through faces that are not marked, in the order of
+  /// their first tets' places in the star, each in star order. Returns how many; group k is
+  /// group_tets_[group_start_[k] .. group_start_[k + 1]) (until the next call).
+  int groupsAround(int v) const;
+  mutable std::vector<int> group_tets_, group_start_;
   /// Of `verts`, those whose split must wait (sorted): splitting all the others, as separate()
   /// does, keeps the boundary a 2-manifold.
   std::vector<int> heldSplits(const std::vector<int>& verts);
@@ -220,7 +224,10 @@ class Cutter {
   std::unordered_set<std::array<int, 3>, FaceHash> marked_;  // cut faces not opened (sorted ids)
   void mark(const std::array<int, 3>& face);
   bool unmark(const std::array<int, 3>& face);
-  std::unordered_map<int, int> marked_at_;  // vertex -> number of marked faces holding it
+  std::vector<int> marked_at_;  // per vertex slot: the number of marked faces holding it
+  bool markedAt(int v) const {
+    return v < static_cast<int>(marked_at_.size()) && marked_at_[v] > 0;
+  }
   CutCounts counts_;
   long long epoch_ = 0;  // changes with anything the separation depends on (collapses too)
   long long busy_epoch_ = 0;  // see stateEpoch()
@@ -243,6 +250,7 @@ class Cutter {
   mutable std::vector<unsigned> star_stamp_;
   mutable std::vector<int> star_place_;
   mutable unsigned star_call_ = 0;
+  mutable std::vector<int> star_parent_, star_group_;  // its union-find, each root's group
   std::vector<unsigned> ring_stamp_;  // separate()'s scratch: per vertex slot, its last call
   unsigned ring_call_ = 0;
   // heldSplits' scratch, per tet slot: the group each corner's vertex will use (-1: it does not

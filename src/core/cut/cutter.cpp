@@ -71,7 +71,10 @@ void Cutter::mark(const std::array<int, 3>& face) {
   if (t1 < 0 || mesh_->faceTet(face[0], face[1], face[2], t1) < 0) return;
   if (marked_.insert(face).second) {
     stateChanged();
-    for (int v : face) ++marked_at_[v];
+    for (int v : face) {
+      growSlots(&marked_at_, static_cast<std::size_t>(v) + 1, 0);
+      ++marked_at_[v];
+    }
     changed_near_.insert(changed_near_.end(), face.begin(), face.end());
   }
 }
@@ -80,13 +83,12 @@ bool Cutter::unmark(const std::array<int, 3>& face) {
   if (!marked_.erase(face)) return false;
   stateChanged();
   changed_near_.insert(changed_near_.end(), face.begin(), face.end());
-  for (int v : face)
-    if (--marked_at_[v] == 0) marked_at_.erase(v);
+  for (int v : face) --marked_at_[v];
   return true;
 }
 
 bool Cutter::isBusy(int v) const {
-  if (deferred_.count(v) || marked_at_.count(v)) return true;
+  if (deferred_.count(v) || markedAt(v)) return true;
   for (int t : mesh_->vertexTets(v))
     if (isPendingPiece(t)) return true;
   return false;
@@ -605,10 +607,14 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
     changed_near_.clear();  // nothing waits near these changes
 }
 
-std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
+int Cutter::groupsAround(int v) const {
+  // Called for every vertex a cut touched, a few times each: no allocation once grown (a vector
+  // of vectors a call had been a quarter of it), and a face is looked up among the marked ones
+  // only when all three of its vertices hold one.
   const std::vector<int>& star = mesh_->vertexTets(v);
   const int n = static_cast<int>(star.size());
-  std::vector<int> parent(n);
+  std::vector<int>& parent = star_parent_;
+  parent.resize(n);
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
@@ -622,7 +628,7 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
     star_place_[star[i]] = i;
   }
   // A face is marked only if each of its vertices is on a marked face.
-  const bool any_marked = marked_at_.count(v) > 0;
+  const bool any_marked = markedAt(v);
   for (int i = 0; i < n; ++i) {
     const TetVerts& tv = mesh_->tet(star[i]);
     for (int f = 0; f < 4; ++f) {
@@ -630,21 +636,34 @@ std::vector<std::vector<int>> Cutter::groupsAround(int v) const {
       const int u = mesh_->neighbor(star[i], f);
       if (u < 0) continue;
       if (star_stamp_[u] != star_call_) continue;
-      if (any_marked &&
-          marked_.count(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]])))
+      const int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]];
+      if (any_marked && markedAt(a) && markedAt(b) && markedAt(c) &&
+          marked_.count(sortedFace(a, b, c)))
         continue;
       parent[find(i)] = find(star_place_[u]);
     }
   }
-  // The groups in the order of their roots' places in the star, each in star order.
-  std::vector<int> group_of(n, -1);
-  std::vector<std::vector<int>> groups;
+  // The groups in the order of their roots' places in the star, each in star order: counted,
+  // then filled.
+  std::vector<int>& group_of = star_group_;
+  group_of.assign(n, -1);
+  group_start_.assign(1, 0);
   for (int r = 0; r < n; ++r)
     if (parent[r] == r) {
-      group_of[r] = static_cast<int>(groups.size());
-      groups.emplace_back();
+      group_of[r] = static_cast<int>(group_start_.size()) - 1;
+      group_start_.push_back(0);
     }
-  for (int i = 0; i < n; ++i) groups[group_of[find(i)]].push_back(star[i]);
+  const int groups = static_cast<int>(group_start_.size()) - 1;
+  for (int i = 0; i < n; ++i) {
+    parent[i] = find(i);
+    ++group_start_[group_of[parent[i]] + 1];
+  }
+  for (int k = 0; k < groups; ++k) group_start_[k + 1] += group_start_[k];
+  // Filled forward with each group's start as its cursor, which ends at the next group's start.
+  group_tets_.resize(n);
+  for (int i = 0; i < n; ++i) group_tets_[group_start_[group_of[parent[i]]]++] = star[i];
+  for (int k = groups; k > 0; --k) group_start_[k] = group_start_[k - 1];
+  group_start_[0] = 0;
   return groups;
 }
 
@@ -663,13 +682,14 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   std::vector<int> splitting, stars;
   for (int v : verts) {
     if (!mesh_->vertexAlive(v)) continue;
-    const auto groups = groupsAround(v);
-    if (groups.size() < 2) continue;
+    const int groups = groupsAround(v);
+    if (groups < 2) continue;
     splitting.push_back(v);
     split_state_[v] = kSplits;
-    for (std::size_t k = 0; k < groups.size(); ++k)
-      for (int t : groups[k]) {
-        corner_group_[t][localIndex(mesh_->tet(t), v)] = static_cast<int>(k);
+    for (int k = 0; k < groups; ++k)
+      for (int i = group_start_[k]; i < group_start_[k + 1]; ++i) {
+        const int t = group_tets_[i];
+        corner_group_[t][localIndex(mesh_->tet(t), v)] = k;
         stars.push_back(t);
       }
   }
@@ -853,12 +873,17 @@ void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, Chan
       after.insert(v);  // held with two groups or more; splits before it did not change them
       continue;
     }
-    const auto groups = groupsAround(v);
-    if (groups.size() < 2) continue;
+    if (groupsAround(v) < 2) continue;
     if (waits) {
       after.insert(v);
       continue;
     }
+    // The groups, kept apart from groupsAround()'s scratch (the splits below do not call it, but
+    // they read the groups after changing the mesh).
+    std::vector<std::vector<int>> groups;
+    for (std::size_t k = 0; k + 1 < group_start_.size(); ++k)
+      groups.emplace_back(group_tets_.begin() + group_start_[k],
+                          group_tets_.begin() + group_start_[k + 1]);
     // The group holding a pending tet's pieces keeps the vertex, so pending state stays as is.
     std::size_t keep = 0;
     for (std::size_t k = 0; k < groups.size(); ++k)
