@@ -147,7 +147,6 @@ class Cutter {
   /// their first tets' places in the star, each in star order. Returns how many; group k is
   /// group_tets_[group_start_[k] .. group_start_[k + 1]) (until the next call).
   int groupsAround(int v) const;
-  mutable std::vector<int> group_tets_, group_start_;
   /// Of `verts`, those whose split must wait (sorted): splitting all the others, as separate()
   /// does, keeps the boundary a 2-manifold.
   std::vector<int> heldSplits(const std::vector<int>& verts);
@@ -251,6 +250,7 @@ class Cutter {
   mutable std::vector<int> star_place_;
   mutable unsigned star_call_ = 0;
   mutable std::vector<int> star_parent_, star_group_;  // its union-find, each root's group
+  mutable std::vector<int> group_tets_, group_start_;  // its answer (see groupsAround())
   std::vector<unsigned> ring_stamp_;  // separate()'s scratch: per vertex slot, its last call
   unsigned ring_call_ = 0;
   // heldSplits' scratch, per tet slot: the group each corner's vertex will use (-1: it does not

@@ -64,8 +64,8 @@ class MassSpring {
   std::string step(double dt);
   /// Does now what the first step of dt [s] would do before it solves: sizes the step's buffers
   /// and finds the strong springs and their clusters (the first step of the 20k organ took 1.8
-  /// ms longer than the next, most of it first touching 3 MB of buffers). Changes no state a
-  /// step reads: only when that work is done. Optional.
+  /// ms longer than the next, most of it first touching 3 MB of buffers). Optional: the steps
+  /// after it are the same, to the bit, as without it; only when that work is done changes.
   void prepare(double dt);
 
   double totalMass() const;      ///< [kg]

@@ -878,8 +878,7 @@ void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, Chan
       after.insert(v);
       continue;
     }
-    // The groups, kept apart from groupsAround()'s scratch (the splits below do not call it, but
-    // they read the groups after changing the mesh).
+    // The groups as vectors: replace() takes the tets it removes (and renames) as one.
     std::vector<std::vector<int>> groups;
     for (std::size_t k = 0; k + 1 < group_start_.size(); ++k)
       groups.emplace_back(group_tets_.begin() + group_start_[k],
