@@ -239,6 +239,7 @@ class Cutter {
   // Scratch buffers of one tick, kept for their capacity.
   std::vector<int> near_scratch_;
   std::vector<int> refiled_;  // tets the grid filed anew this tick (TetGrid::refresh)
+  std::vector<int> update_refiled_;  // and with a change (TetGrid::update)
   double moved_ = 0.0;        // how far vertices may have moved since the grid's last refresh
   bool told_motion_ = false;  // tissueMoved() was called: moved_ is known
   std::vector<int> swept_near_;  // this tick's sweep search, while no tet has been replaced

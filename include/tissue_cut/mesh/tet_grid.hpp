@@ -30,11 +30,16 @@ inline bool tetBoxMeets(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& 
 class TetGrid {
  public:
   /// Indexes every live tet. cell: grid cell edge [m]; margin: how far positions may drift
-  /// before a rebuild [m]. A tet is filed under its box as it is when filed; a query looks that
-  /// much further, so it still finds every tet whose box drifted by up to `margin`.
+  /// before a rebuild [m]. Each vertex has a filed position (where it was at the build or its
+  /// last refile) and a tet is filed under the box of its vertices' filed positions: while no
+  /// vertex is further than `margin` from its filed position, no tet's box is further than that
+  /// from its filed box, and a query, looking that much further, finds every tet it should.
   void build(const TetMesh& mesh, double cell, double margin);
-  /// Files the tets a change added (removed ones are skipped at query time).
-  void update(const TetMesh& mesh, const ChangeRecord& change);
+  /// Files the tets a change added (removed ones are skipped at query time). A vertex of theirs
+  /// further than the margin from its filed position (moved by the change, as smoothing moves
+  /// one) is filed where it is now, with all its tets: those not added are appended to *refiled
+  /// when given (in no particular order; they may repeat).
+  void update(const TetMesh& mesh, const ChangeRecord& change, std::vector<int>* refiled = nullptr);
   /// Live tets whose current bounding box overlaps the box [lo, hi] [m], in increasing id order.
   std::vector<int> query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi) const;
   /// The same into *out (its capacity is reused: no allocation once grown).
@@ -45,19 +50,18 @@ class TetGrid {
   void candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, std::vector<int>* out) const;
   /// Whether tet t, filed just now, belongs to candidates(lo, hi).
   bool filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) const;
-  /// True when the index has gone stale: a vertex drifted more than half the margin from where
-  /// it was filed (so a tet's box moved less than the margin), or dead entries pile up. Scans
-  /// every vertex. (The cutter keeps the index fresh with refresh(); this checks the invariant
-  /// refresh() keeps, for tests and callers that rebuild instead.)
+  /// True when the index has gone stale: a vertex drifted more than the margin from where it
+  /// was filed (so a tet's box may have moved more than the margin), or dead entries pile up.
+  /// Scans every vertex. (The cutter keeps the index fresh with refresh(); this checks the
+  /// invariant refresh() keeps, for tests and callers that rebuild instead.)
   bool needsRebuild(const TetMesh& mesh) const;
-  /// Keeps the index fresh without a rebuild: every vertex that drifted more than half the
-  /// margin from where it was filed is filed there now, with the tets around it under their
-  /// current boxes (their old entries go). Appends the tets refiled to *refiled (each once, in
+  /// Keeps the index fresh without a rebuild: every vertex that drifted more than the margin
+  /// from where it was filed is filed where it is now, and the tets around it under their new
+  /// boxes (their old entries go). Appends the tets refiled to *refiled (each once, in
   /// increasing order). Queries made after it, before the tissue moves again, are exact however
   /// far it moved. `moved` bounds how far any vertex moved since the last call (infinity: not
   /// known); the vertices are scanned only when the moves since the last scan could have taken
-  /// one past half the margin (a vertex moved otherwise must have had its tets refiled by an
-  /// update()).
+  /// one past the margin (a vertex moved otherwise is refiled by an update()).
   void refresh(const TetMesh& mesh, double moved, std::vector<int>* refiled);
   /// True when dead entries pile up (twice the entries of the last build): time to rebuild.
   bool cluttered() const { return entries_ > 2 * entries_at_build_ + 1024; }
@@ -95,17 +99,24 @@ class TetGrid {
   std::vector<std::vector<int>> cells_;
   std::vector<Box> boxes_;  // per tet slot
   std::size_t entries_ = 0, entries_at_build_ = 0;
-  std::vector<Vec3> built_positions_;
   // Per tet slot, the cells its latest entries are in (first and last corner; -1: none).
   struct Filed {
     std::array<int, 3> first{-1, -1, -1}, last{-1, -1, -1};
   };
   std::vector<Filed> filed_;
-  /// Tet t's box now (rounded outward to floats) and the cells it spans.
+  /// Tet t's box as filed: over its vertices' filed positions (rounded outward to floats), and
+  /// the cells it spans.
   Box boxOf(const TetMesh& mesh, int t, Filed* cells) const;
+  /// The query box [lo, hi] grown by reach(), in floats rounded outward: a filed box that may
+  /// have drifted into [lo, hi] meets it.
+  void grown(const Vec3& lo, const Vec3& hi, float* qlo, float* qhi) const;
   // How far a vertex may be from where it was filed, as far as refresh() knows: the farthest at
   // the last scan, plus the moves since.
   double drift_bound_ = 0.0;
+  // Per vertex slot, where it was filed (see build()).
+  std::vector<Vec3> built_positions_;
+  // update()'s scratch: the vertices it files anew.
+  std::vector<int> moved_scratch_;
   // Per tet slot, the stamp of the query or refresh that last took it: each tet once a call.
   mutable std::vector<unsigned> seen_;
   mutable unsigned stamp_ = 0;

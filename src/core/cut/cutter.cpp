@@ -95,8 +95,10 @@ bool Cutter::isBusy(int v) const {
 }
 
 void Cutter::refreshGrid(const ChangeRecord& change) {
-  grid_.update(*mesh_, change);
+  update_refiled_.clear();
+  grid_.update(*mesh_, change, &update_refiled_);
   joinNearCache(change.added_tets);
+  joinNearCache(update_refiled_);
 }
 
 void Cutter::joinNearCache(const std::vector<int>& tets) {

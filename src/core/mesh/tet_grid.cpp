@@ -9,15 +9,6 @@ namespace tissue_cut {
 
 namespace {
 
-void tetBox(const TetMesh& mesh, int t, Vec3* lo, Vec3* hi) {
-  const TetVerts& v = mesh.tet(t);
-  *lo = *hi = mesh.current(v[0]);
-  for (int i = 1; i < 4; ++i) {
-    *lo = lo->cwiseMin(mesh.current(v[i]));
-    *hi = hi->cwiseMax(mesh.current(v[i]));
-  }
-}
-
 // The float next to f towards -infinity (down) or +infinity (up), as std::nextafter gives, without
 // the library call (six a tet filed); non-finite f goes to std::nextafter.
 float floatBelow(double x) {
@@ -54,8 +45,13 @@ std::array<int, 3> TetGrid::cellOf(const Vec3& x) const {
 }
 
 TetGrid::Box TetGrid::boxOf(const TetMesh& mesh, int t, Filed* cells) const {
-  Vec3 lo, hi;
-  tetBox(mesh, t, &lo, &hi);
+  const TetVerts& v = mesh.tet(t);
+  // Every vertex of a filed tet has a filed position (build() and update() see to it).
+  Vec3 lo = built_positions_[v[0]], hi = lo;
+  for (int i = 1; i < 4; ++i) {
+    lo = lo.cwiseMin(built_positions_[v[i]]);
+    hi = hi.cwiseMax(built_positions_[v[i]]);
+  }
   Box box;
   for (int d = 0; d < 3; ++d) {
     box.lo[d] = floatBelow(lo[d]);
@@ -128,8 +124,8 @@ void TetGrid::refile(const TetMesh& mesh, int t) {
 void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refiled) {
   if (cells_.empty()) return;
   drift_bound_ += moved >= 0.0 ? moved : HUGE_VAL;  // not known (or NaN): anything may have moved
-  if (!(drift_bound_ > 0.5 * margin_)) return;  // no vertex can be past half the margin yet
-  const double limit = 0.25 * margin_ * margin_;
+  if (!(drift_bound_ > margin_)) return;            // no vertex can be past the margin yet
+  const double limit = margin_ * margin_;
   const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
   const Vec3* now = mesh.currentPositions().data();
   const std::size_t first = refiled->size();
@@ -141,7 +137,7 @@ void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refil
       if (mesh.vertexAlive(v)) farthest = std::max(farthest, d2);
       continue;
     }
-    // Every tet filed from now on sees v within half the margin of here.
+    // Filed here now: so are its tets, below.
     built_positions_[v] = now[v];
     // Each tet once, however many of its vertices drifted (the tissue sags as a whole).
     for (const int t : mesh.vertexTets(v)) {
@@ -194,28 +190,49 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
   entries_ = 0;
   assignSlots(&filed_, mesh.tetSlots(), Filed{});
   assignSlots(&boxes_, mesh.tetSlots(), Box{});
+  built_positions_.reserve(mesh.currentPositions().capacity());
+  built_positions_ = mesh.currentPositions();
   for (int t = 0; t < mesh.tetSlots(); ++t)
     if (mesh.tetAlive(t)) insert(mesh, t);
   entries_at_build_ = entries_;
-  built_positions_.reserve(mesh.currentPositions().capacity());
-  built_positions_ = mesh.currentPositions();
   drift_bound_ = 0.0;
 }
 
-void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change) {
-  for (int t : change.added_tets)
-    if (mesh.tetAlive(t)) insert(mesh, t);
+void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change, std::vector<int>* refiled) {
   for (int v : change.added_vertices) {
     growSlots(&built_positions_, static_cast<std::size_t>(v) + 1, Vec3::Zero());
     built_positions_[v] = mesh.current(v);
   }
+  // A vertex the change moved (a smoothing move, or a slot reused) past the margin from where it
+  // was filed is filed where it is now, before the added tets are: then its other tets too.
+  const double limit = margin_ * margin_;
+  std::vector<int>& moved = moved_scratch_;
+  moved.clear();
+  for (int t : change.added_tets) {
+    if (!mesh.tetAlive(t)) continue;
+    for (int v : mesh.tet(t)) {
+      growSlots(&built_positions_, static_cast<std::size_t>(v) + 1, Vec3::Zero());
+      if (!((mesh.current(v) - built_positions_[v]).squaredNorm() <= limit)) {
+        built_positions_[v] = mesh.current(v);
+        moved.push_back(v);
+      }
+    }
+  }
+  for (int t : change.added_tets)
+    if (mesh.tetAlive(t)) insert(mesh, t);
+  // The added tets were filed with the new positions already (refile() leaves them as they are).
+  for (int v : moved)
+    for (int t : mesh.vertexTets(v)) {
+      refile(mesh, t);
+      if (refiled) refiled->push_back(t);
+    }
 }
 
 bool TetGrid::needsRebuild(const TetMesh& mesh) const {
   if (cluttered()) return true;
-  // A tet filed after the build uses its vertices' positions then, each within half the margin
-  // of its filed position; so no box has moved more than the margin since it was filed.
-  const double limit = 0.25 * margin_ * margin_;
+  // A tet is filed under its vertices' filed positions: with each vertex within the margin of
+  // its own, no box has moved more than the margin from where it was filed.
+  const double limit = margin_ * margin_;
   const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
   for (int v = 0; v < n; ++v)
     if (mesh.vertexAlive(v) && (mesh.current(v) - built_positions_[v]).squaredNorm() > limit)
@@ -237,14 +254,8 @@ void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool cu
   const Vec3 margin = Vec3::Constant(margin_);
   const auto [i0, j0, k0] = cellOf(lo - margin);
   const auto [i1, j1, k1] = cellOf(hi + margin);
-  // A filed box that may have drifted into the query box overlaps it grown by the margin (a
-  // little more, and rounded outward, for the floats).
   float qlo[3], qhi[3];
-  for (int d = 0; d < 3; ++d) {
-    const double slack = reach(lo, hi, d);
-    qlo[d] = std::nextafter(static_cast<float>(lo[d] - slack), -HUGE_VALF);
-    qhi[d] = std::nextafter(static_cast<float>(hi[d] + slack), HUGE_VALF);
-  }
+  grown(lo, hi, qlo, qhi);
   for (int k = k0; k <= k1; ++k)
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i)
@@ -265,15 +276,24 @@ void TetGrid::candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
   filed(mesh, lo, hi, false, out);
 }
 
-bool TetGrid::filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) const {
-  if (cells_.empty() || !mesh.tetAlive(t)) return false;
-  Vec3 tlo, thi;
-  tetBox(mesh, t, &tlo, &thi);
+void TetGrid::grown(const Vec3& lo, const Vec3& hi, float* qlo, float* qhi) const {
+  // A filed box that may have drifted into the query box overlaps it grown by the margin (a
+  // little more, and rounded outward, for the floats).
   for (int d = 0; d < 3; ++d) {
     const double slack = reach(lo, hi, d);
-    if (tlo[d] > hi[d] + slack || thi[d] < lo[d] - slack) return false;
+    qlo[d] = std::nextafter(static_cast<float>(lo[d] - slack), -HUGE_VALF);
+    qhi[d] = std::nextafter(static_cast<float>(hi[d] + slack), HUGE_VALF);
   }
-  return true;
+}
+
+bool TetGrid::filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) const {
+  if (cells_.empty() || !mesh.tetAlive(t) || t >= static_cast<int>(boxes_.size())) return false;
+  // The test candidates() makes of its filed box.
+  float qlo[3], qhi[3];
+  grown(lo, hi, qlo, qhi);
+  const Box& e = boxes_[t];
+  return !(e.lo[0] > qhi[0] || e.hi[0] < qlo[0] || e.lo[1] > qhi[1] || e.hi[1] < qlo[1] ||
+           e.lo[2] > qhi[2] || e.hi[2] < qlo[2]);
 }
 
 void TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
