@@ -1,5 +1,6 @@
-// TetGrid: a uniform grid of tets by their current bounding boxes, so that finding the tets near
-// the blade costs as much as the blade's neighbourhood, not the whole mesh.
+// TetGrid: a uniform grid of tets by their bounding boxes (as filed, within a margin of where they
+// are now), so that finding the tets near the blade costs as much as the blade's neighbourhood,
+// not the whole mesh.
 #pragma once
 
 #include <algorithm>
@@ -37,8 +38,8 @@ class TetGrid {
   void build(const TetMesh& mesh, double cell, double margin);
   /// Files the tets a change added (removed ones are skipped at query time). A vertex of theirs
   /// further than the margin from its filed position (moved by the change, as smoothing moves
-  /// one) is filed where it is now, with all its tets: those not added are appended to *refiled
-  /// when given (in no particular order; they may repeat).
+  /// one) is filed where it is now, with all its tets, which are appended to *refiled when given
+  /// (the added ones among them; in no particular order, they may repeat).
   void update(const TetMesh& mesh, const ChangeRecord& change, std::vector<int>* refiled = nullptr);
   /// Live tets whose current bounding box overlaps the box [lo, hi] [m], in increasing id order.
   std::vector<int> query(const TetMesh& mesh, const Vec3& lo, const Vec3& hi) const;

@@ -199,10 +199,8 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
 }
 
 void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change, std::vector<int>* refiled) {
-  for (int v : change.added_vertices) {
-    growSlots(&built_positions_, static_cast<std::size_t>(v) + 1, Vec3::Zero());
-    built_positions_[v] = mesh.current(v);
-  }
+  growSlots(&built_positions_, static_cast<std::size_t>(mesh.vertexSlots()), Vec3::Zero());
+  for (int v : change.added_vertices) built_positions_[v] = mesh.current(v);
   // A vertex the change moved (a smoothing move, or a slot reused) past the margin from where it
   // was filed is filed where it is now, before the added tets are: then its other tets too.
   const double limit = margin_ * margin_;
@@ -211,7 +209,6 @@ void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change, std::vecto
   for (int t : change.added_tets) {
     if (!mesh.tetAlive(t)) continue;
     for (int v : mesh.tet(t)) {
-      growSlots(&built_positions_, static_cast<std::size_t>(v) + 1, Vec3::Zero());
       if (!((mesh.current(v) - built_positions_[v]).squaredNorm() <= limit)) {
         built_positions_[v] = mesh.current(v);
         moved.push_back(v);
