@@ -177,6 +177,9 @@ class MassSpring {
   template <class F>
   void forEachNeighbour(int v, F&& f);
   void buildClusters();                                 // clusters_ from strong_
+  /// strong_ found again when dt changed, clusters_ built again when stale or sized for fewer
+  /// vertex slots: what a step needs before its set-up (and prepare() does ahead).
+  void refreshClusters(double dt);
   /// Inverts each cluster's block of A, from cluster_diag_ and the springs' blocks.
   void factorClusters();
   void factorCluster(Cluster* cluster);

@@ -201,8 +201,9 @@ void TetGrid::build(const TetMesh& mesh, double cell, double margin) {
 void TetGrid::update(const TetMesh& mesh, const ChangeRecord& change, std::vector<int>* refiled) {
   growSlots(&built_positions_, static_cast<std::size_t>(mesh.vertexSlots()), Vec3::Zero());
   for (int v : change.added_vertices) built_positions_[v] = mesh.current(v);
-  // A vertex the change moved (a smoothing move, or a slot reused) past the margin from where it
-  // was filed is filed where it is now, before the added tets are: then its other tets too.
+  // A vertex the change moved (a smoothing move) past the margin from where it was filed is
+  // filed where it is now, before the added tets are: then its other tets too. (Vertex ids are
+  // never reused: an added vertex is filed where it was made, just above.)
   const double limit = margin_ * margin_;
   std::vector<int>& moved = moved_scratch_;
   moved.clear();

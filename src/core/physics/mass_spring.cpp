@@ -857,6 +857,10 @@ void MassSpring::prepare(double dt) {
   resize();
   sizeStepBuffers();
   if (!params_.implicit || !(dt > 0)) return;
+  refreshClusters(dt);
+}
+
+void MassSpring::refreshClusters(double dt) {
   if (dt != strong_dt_) rescanStrong(dt);
   if (clusters_stale_ || static_cast<int>(cluster_of_.size()) != mesh_->vertexSlots())
     buildClusters();
@@ -918,8 +922,7 @@ bool MassSpring::stepImplicit(double dt) {
                           : linear;
     }
   });
-  if (dt != strong_dt_) rescanStrong(dt);
-  if (clusters_stale_ || static_cast<int>(cluster_of_.size()) != n) buildClusters();
+  refreshClusters(dt);
   // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
   // forces, their stiffness blocks (kept scaled by h^2 for the CG products), the diagonal blocks
   // of A for the preconditioner and the springs' part of A dv.
