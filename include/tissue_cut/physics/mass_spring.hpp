@@ -271,12 +271,26 @@ class MassSpring {
     double sum[4];
   };
   std::vector<Partial> partial_;
-  std::vector<std::array<int, 2>> strong_;  // strong springs' ends (lower first), sorted
+  struct StrongSpring {
+    std::array<int, 2> ends;  // lower first
+    double ratio;             // strongRatio() when found (it changes only where follow() looks)
+    bool operator<(const StrongSpring& o) const { return ends < o.ends; }
+    bool operator==(const StrongSpring& o) const { return ends == o.ends; }
+  };
+  std::vector<StrongSpring> strong_;       // the strong springs, sorted by their ends
   double strong_dt_ = 0.0;                 // the step size of strong_; 0: find them all again
   std::vector<Cluster> clusters_;
   std::vector<int> cluster_of_;      // per vertex: its cluster's index in clusters_, or -1
   std::vector<Block> cluster_diag_;  // a cluster vertex's own block of A, this step
-  std::vector<std::pair<double, std::array<int, 2>>> strong_order_;  // buildClusters()' scratch
+  // buildClusters()' scratch: the strong springs strongest first, and the clusters as they grow
+  // (a Cluster with its inverse is 1.2 kB: made and moved while merging, they had been half of
+  // the rebuild that every cut or collapse tick makes).
+  std::vector<StrongSpring> strong_order_;
+  struct ClusterSet {
+    int size = 0;
+    std::array<int, kMaxCluster> vertices;
+  };
+  std::vector<ClusterSet> cluster_sets_;
   std::vector<unsigned> neighbour_seen_;  // forEachNeighbour()'s stamps: each neighbour once
   unsigned neighbour_stamp_ = 0;
   std::vector<unsigned> changed_seen_;  // updateStrong()'s scratch: the changed vertices

@@ -570,8 +570,10 @@ double MassSpring::strongRatio(int a, int b, double dt) const {
 void MassSpring::rescanStrong(double dt) {
   strong_dt_ = dt;
   strong_.clear();
-  for (const Spring& s : springs_)
-    if (strongRatio(s.a, s.b, dt) > 0) strong_.push_back({s.a, s.b});
+  for (const Spring& s : springs_) {
+    const double ratio = strongRatio(s.a, s.b, dt);
+    if (ratio > 0) strong_.push_back({{s.a, s.b}, ratio});
+  }
   std::sort(strong_.begin(), strong_.end());
   clusters_stale_ = true;
 }
@@ -596,8 +598,8 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
   for (int v : vertices) changed_seen_[v] = changed_stamp_;
   auto changed = [&](int v) { return changed_seen_[v] == changed_stamp_; };
   strong_.erase(std::remove_if(strong_.begin(), strong_.end(),
-                               [&](const std::array<int, 2>& e) {
-                                 return changed(e[0]) || changed(e[1]);
+                               [&](const StrongSpring& e) {
+                                 return changed(e.ends[0]) || changed(e.ends[1]);
                                }),
                 strong_.end());
   // The rest stays sorted: the springs found again are sorted apart and merged in (these calls
@@ -607,7 +609,8 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
   for (int v : vertices) {
     if (!mesh_->vertexAlive(v)) continue;
     forEachNeighbour(v, [&](int u) {
-      if (strongRatio(u, v, strong_dt_) > 0) strong_.push_back({std::min(u, v), std::max(u, v)});
+      const double ratio = strongRatio(u, v, strong_dt_);
+      if (ratio > 0) strong_.push_back({{std::min(u, v), std::max(u, v)}, ratio});
     });
   }
   std::sort(strong_.begin() + kept, strong_.end());
@@ -624,43 +627,47 @@ void MassSpring::buildClusters() {
     for (int k = 0; k < c.size; ++k) cluster_of_[c.vertices[k]] = -1;
   resizeSlots(&cluster_of_, mesh_->vertexSlots(), -1);
   resizeSlots(&cluster_diag_, mesh_->vertexSlots());
-  clusters_.clear();
   auto& order = strong_order_;  // capacity kept
-  order.clear();
-  for (const auto& e : strong_) order.push_back({strongRatio(e[0], e[1], strong_dt_), e});
-  std::sort(order.begin(), order.end(), [](const auto& x, const auto& y) {
-    return x.first != y.first ? x.first > y.first : x.second < y.second;
+  order.assign(strong_.begin(), strong_.end());
+  std::sort(order.begin(), order.end(), [](const StrongSpring& x, const StrongSpring& y) {
+    return x.ratio != y.ratio ? x.ratio > y.ratio : x.ends < y.ends;
   });
+  std::vector<ClusterSet>& sets = cluster_sets_;
+  sets.clear();
   auto add = [&](int c, int v) {
-    clusters_[c].vertices[clusters_[c].size++] = v;
+    sets[c].vertices[sets[c].size++] = v;
     cluster_of_[v] = c;
   };
-  for (const auto& [ratio, e] : order) {
-    const int a = e[0], b = e[1];
+  for (const StrongSpring& e : order) {
+    const int a = e.ends[0], b = e.ends[1];
     int ca = cluster_of_[a];
     const int cb = cluster_of_[b];
     if (ca >= 0 && ca == cb) continue;
-    const int together = (ca >= 0 ? clusters_[ca].size : 1) + (cb >= 0 ? clusters_[cb].size : 1);
+    const int together = (ca >= 0 ? sets[ca].size : 1) + (cb >= 0 ? sets[cb].size : 1);
     if (together > kMaxCluster) continue;
     if (ca < 0) {
-      ca = static_cast<int>(clusters_.size());
-      clusters_.emplace_back();
+      ca = static_cast<int>(sets.size());
+      sets.emplace_back();
       add(ca, a);
     }
     if (cb < 0) {
       add(ca, b);
     } else {
-      Cluster& from = clusters_[cb];
+      ClusterSet& from = sets[cb];
       for (int k = 0; k < from.size; ++k) add(ca, from.vertices[k]);
       from.size = 0;  // dropped below
     }
   }
-  // Drop the emptied ones, renumber, and list each cluster's inner springs.
+  // The non-empty ones in order, renumbered, each with its inner springs.
   int kept = 0;
-  for (int c = 0; c < static_cast<int>(clusters_.size()); ++c) {
-    if (clusters_[c].size == 0) continue;
-    if (kept != c) clusters_[kept] = clusters_[c];
+  for (const ClusterSet& set : sets) kept += set.size > 0 ? 1 : 0;
+  clusters_.resize(kept);
+  kept = 0;
+  for (const ClusterSet& set : sets) {
+    if (set.size == 0) continue;
     Cluster& cl = clusters_[kept];
+    cl.size = set.size;
+    cl.vertices = set.vertices;
     cl.num_springs = 0;
     for (int i = 0; i < cl.size; ++i) {
       cluster_of_[cl.vertices[i]] = kept;
@@ -671,7 +678,6 @@ void MassSpring::buildClusters() {
     }
     ++kept;
   }
-  clusters_.resize(kept);
 }
 
 void MassSpring::factorClusters() {
