@@ -252,8 +252,11 @@ class Cutter {
   mutable unsigned star_call_ = 0;
   mutable std::vector<int> star_parent_, star_group_;  // its union-find, each root's group
   mutable std::vector<int> group_tets_, group_start_;  // its answer (see groupsAround())
-  std::vector<unsigned> ring_stamp_;  // separate()'s scratch: per vertex slot, its last call
-  unsigned ring_call_ = 0;
+  // separate()'s scratch: per vertex slot, the call that put it in the rings around the changes,
+  // the last waiting vertex whose rings held it; the rings.
+  std::vector<unsigned> ring_stamp_, wait_stamp_;
+  unsigned ring_call_ = 0, wait_call_ = 0;
+  std::vector<int> ring_, ring_next_;
   // heldSplits' scratch, per tet slot: the group each corner's vertex will use (-1: it does not
   // split), the faces that open (bit f), the call that put it in the region; per vertex slot: a
   // candidate that splits or is held back, the call that put it in the check.
