@@ -52,6 +52,33 @@ TEST(WorkerTeam, SleepingHelpersWakeForTheNextJob) {
   }
 }
 
+// expectJob(): a sleeping helper wakes and keeps looking (it does not go back to sleep after
+// its usual spin) until the job comes or the time given has passed; then it sleeps again.
+TEST(WorkerTeam, AnExpectedJobKeepsTheHelpersAwakeUntilItComes) {
+  using namespace std::chrono_literals;
+  WorkerTeam team(2);
+  auto waitFor = [&](int sleeping, std::chrono::milliseconds within) {
+    const auto end = std::chrono::steady_clock::now() + within;
+    while (team.sleepingHelpers() != sleeping && std::chrono::steady_clock::now() < end)
+      std::this_thread::sleep_for(100us);
+    return team.sleepingHelpers() == sleeping;
+  };
+  ASSERT_TRUE(waitFor(1, 2000ms)) << "an idle helper sleeps";
+  team.expectJob(std::chrono::microseconds(400000));
+  ASSERT_TRUE(waitFor(0, 2000ms)) << "the expectation wakes it";
+  // Far longer than a helper looks before it sleeps, well within the expectation.
+  std::this_thread::sleep_for(20ms);
+  EXPECT_EQ(team.sleepingHelpers(), 0) << "it stays awake while the job is expected";
+  std::vector<int> runs(2, 0);
+  team.run([&](int part) { ++runs[part]; });
+  EXPECT_EQ(runs, std::vector<int>({1, 1}));
+  EXPECT_TRUE(waitFor(1, 2000ms)) << "the job came: it sleeps again";
+  // An expectation that passes without a job ends too.
+  team.expectJob(std::chrono::microseconds(50000));
+  EXPECT_TRUE(waitFor(0, 2000ms));
+  EXPECT_TRUE(waitFor(1, 2000ms)) << "the expectation passed: it sleeps again";
+}
+
 TEST(WorkerTeam, OneThreadRunsOnTheCaller) {
   WorkerTeam team(1);
   EXPECT_EQ(team.size(), 1);

@@ -60,6 +60,10 @@ class MassSpring {
   /// vertices are fixed when all their parents are; removed vertices' mass goes with their tets.
   void follow(const ChangeRecord& change);
 
+  /// A step is coming within `within_us` (after other work, such as a cut): a second thread's
+  /// helper stays awake for it (see WorkerTeam::expectJob()).
+  void expectStep(double within_us);
+
   /// One step of dt [s]. Returns a warning when the step was unstable (rolled back and damped).
   std::string step(double dt);
   /// Does now what the first step of dt [s] would do before it solves: sizes the step's buffers

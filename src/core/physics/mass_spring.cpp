@@ -1104,6 +1104,11 @@ void MassSpring::stepSemiImplicit(double dt) {
   }
 }
 
+void MassSpring::expectStep(double within_us) {
+  if (team_ && within_us > 0)
+    team_->expectJob(std::chrono::microseconds(static_cast<long long>(std::min(within_us, 1e6))));
+}
+
 std::string MassSpring::step(double dt) {
   const auto start = std::chrono::steady_clock::now();
   struct Timer {  // counts the step's time on every way out

@@ -63,11 +63,21 @@ void WorkerTeam::runPart(int index, std::uint64_t job) {
     }
 }
 
+void WorkerTeam::expectJob(std::chrono::microseconds within) {
+  if (helpers_.empty()) return;
+  const auto until = std::chrono::steady_clock::now() + within;
+  awake_until_.store(until.time_since_epoch().count());
+  if (sleeping_.load() == 0) return;  // seq_cst with the helpers' count and look (see helperLoop)
+  { std::lock_guard<std::mutex> lock(mutex_); }
+  wake_.notify_all();
+}
+
 void WorkerTeam::run(const std::function<void(int)>& part) {
   if (helpers_.empty()) {
     part(0);
     return;
   }
+  awake_until_.store(0, std::memory_order_relaxed);  // the expected job came
   job_ = &part;
   done_.store(0, std::memory_order_relaxed);
   std::uint64_t job;
@@ -91,10 +101,22 @@ void WorkerTeam::helperLoop(int index) {
   for (;;) {
     const auto since = std::chrono::steady_clock::now();
     std::uint64_t now = job_number_.load(std::memory_order_acquire);
+    // Sleeps once it has looked kSpinFor and no job is expected (see expectJob()). A helper
+    // counts itself asleep before it looks at the expectation, and expectJob() sets that before
+    // it looks at the count (both sequentially consistent): either the helper sees the
+    // expectation and stays up, or expectJob() sees it asleep and wakes it.
+    auto expected = [&] {
+      return std::chrono::steady_clock::now().time_since_epoch().count() < awake_until_.load();
+    };
     for (int looks = 0; now == seen; ++looks) {
-      if ((looks & 63) == 63 && std::chrono::steady_clock::now() - since > kSpinFor) {
+      if ((looks & 63) == 63 && std::chrono::steady_clock::now() - since > kSpinFor &&
+          !expected()) {
         std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return job_number_.load(std::memory_order_acquire) != seen; });
+        sleeping_.fetch_add(1);
+        wake_.wait(lock, [&] {
+          return job_number_.load(std::memory_order_acquire) != seen || expected();
+        });
+        sleeping_.fetch_sub(1);
       } else {
         relax(looks);
       }
