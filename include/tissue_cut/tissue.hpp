@@ -103,6 +103,12 @@ class Tissue {
   std::array<double, kRecentSteps> recent_physics_us_{};
   long long physics_steps_ = 0;
   double physics_slow_us_ = 0.0;
+  // The last collapse batches' cost to follow [us per tet changed] (a ring), and its
+  // kSlowPercent-th percentile: the queue keeps that time for it under a deadline.
+  static constexpr std::size_t kRecentFollows = 32;
+  static constexpr std::size_t kMinFollowSample = 16;  // tets a batch changes to be measured
+  std::array<double, kRecentFollows> recent_follow_{};
+  long long follows_ = 0;
   std::function<double()> clock_;  // null: the steady clock
   std::vector<unsigned char> cut_region_;
   std::vector<unsigned char> removed_flag_;  // applyChange()'s scratch: removed tets' flags

@@ -156,7 +156,8 @@ namespace {
 // reading, so that it ends inside tets' work at known places: both must end with the same mesh.
 // The ticked queue's counts.
 CollapseCounts workedOffAtOnceAndInTicks(double budget_us, double limit_us,
-                                         double call_budget_us = 0.0) {
+                                         double call_budget_us = 0.0,
+                                         double follow_us_per_tet = 0.0) {
   const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
   Tissue tissue(withCollapse(false, 0.06), makeBlock());
   EXPECT_EQ(replay(tissue, path), "");
@@ -177,6 +178,7 @@ CollapseCounts workedOffAtOnceAndInTicks(double budget_us, double limit_us,
   CollapseQueue ticks(&in_ticks, tau, budget_us);
   double clock = 0.0;
   ticks.setBudgetClock([&] { return clock += 10.0; });
+  ticks.setFollowCost(follow_us_per_tet);
   ticks.queueFrom(all, everyTet);
   int calls = 0;
   for (; calls < 100000 && ticks.pending() > 0; ++calls) {
@@ -231,6 +233,43 @@ TEST(Collapse, ACallsLimitStopsItsFirstTetTooAndTheWorkEndsAsIfUninterrupted) {
 // a queue of 35 us does (with the queue's 1,000 us, next to none would stop).
 TEST(Collapse, ACallsOwnBudgetStandsForTheQueues) {
   EXPECT_GT(workedOffAtOnceAndInTicks(1000.0, -1.0, 35.0).stopped, 20);
+}
+
+// Under a limit, what following a call's changes will cost its caller counts against the limit
+// (setFollowCost, per tet changed): a call stops once its time plus that reaches the limit, so
+// that the tick ends by its deadline. A call of 2 ms on a clock of 10 us a reading, without and
+// with a follow cost of 20 us a tet; then the same work in calls of 200 us with that cost ends
+// as if uninterrupted.
+TEST(Collapse, UnderALimitTheCostOfFollowingTheChangesCountsToo) {
+  const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
+  Tissue tissue(withCollapse(false, 0.06), makeBlock());
+  ASSERT_EQ(replay(tissue, path), "");
+  ChangeRecord all;
+  for (int t = 0; t < tissue.mesh().tetSlots(); ++t)
+    if (tissue.mesh().tetAlive(t)) all.added_tets.push_back(t);
+  auto everyTet = [](int) { return true; };
+  auto noneBusy = [](int) { return false; };
+  auto changedInOneCall = [&](double follow_us_per_tet) {
+    TetMesh mesh = tissue.mesh();
+    CollapseQueue queue(&mesh, tissue.config().collapse.tau, 0.0);
+    double clock = 0.0;
+    queue.setBudgetClock([&] { return clock += 10.0; });
+    queue.setFollowCost(follow_us_per_tet);
+    queue.queueFrom(all, everyTet);
+    ChangeRecord change;
+    queue.process(noneBusy, everyTet, &change, true, 2000.0);
+    EXPECT_EQ(mesh.validate(), "");
+    return static_cast<int>(change.added_tets.size() + change.removed_tets.size());
+  };
+  const int free = changedInOneCall(0.0), costed = changedInOneCall(20.0);
+  std::printf("tets changed in 2 ms: %d without a follow cost, %d at 20 us a tet\n", free, costed);
+  EXPECT_GT(free * 20.0, 2000.0);  // the cost binds: without it the call changes more
+  EXPECT_LT(costed, free);
+  EXPECT_GT(costed, 0);
+  // It stops at the first check past the limit: within one step's changes of it (a collapse
+  // changes the tets around one edge, a few dozen at most).
+  EXPECT_LT(costed * 20.0, 2000.0 + 60 * 20.0);
+  EXPECT_GT(workedOffAtOnceAndInTicks(1000.0, 200.0, 0.0, 20.0).stopped, 5);
 }
 
 namespace {

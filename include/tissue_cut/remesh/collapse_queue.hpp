@@ -63,6 +63,10 @@ class CollapseQueue {
   const CollapseCounts& counts() const { return counts_; }
   void setTau(double tau) { tau_ = tau; }
   void setBudget(double budget_us) { budget_us_ = budget_us; }
+  /// What following the call's changes will cost its caller afterwards [us per tet removed or
+  /// added] (the physics and the cutter update their state for them): under a limit, the work
+  /// stops once its time plus that reaches the limit, so that the tick ends by its deadline.
+  void setFollowCost(double us_per_tet) { follow_us_per_tet_ = us_per_tet; }
   /// The clock the budget is measured on [us, any origin]; null (the default): the steady clock.
   /// A test gives one that advances a fixed step a reading, so that it knows where a budget ends.
   void setBudgetClock(std::function<double()> now_us) { budget_clock_ = std::move(now_us); }
@@ -125,6 +129,7 @@ class CollapseQueue {
 
   TetMesh* mesh_;
   double tau_, budget_us_;
+  double follow_us_per_tet_ = 0.0;
   std::function<double()> budget_clock_;
   std::priority_queue<Entry> heap_;
   // A tet whose work stopped at the budget: the next call works it first (taken off the heap

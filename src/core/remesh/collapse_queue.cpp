@@ -359,9 +359,14 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   // entries cost next to nothing and do not count.
   bool attempted = false;
   const bool limited = limit_us >= 0.0;
-  while ((resume_ || !heap_.empty()) &&
-         (!attempted || budget <= 0 || spent_us() < budget) &&
-         (!limited || spent_us() < limit_us)) {
+  // Under a limit, the time the caller will take to follow this call's changes counts too.
+  const std::size_t changed0 = change->added_tets.size() + change->removed_tets.size();
+  auto used_us = [&] {
+    const std::size_t changed = change->added_tets.size() + change->removed_tets.size();
+    return spent_us() + follow_us_per_tet_ * static_cast<double>(changed - changed0);
+  };
+  while ((resume_ || !heap_.empty()) && (!attempted || budget <= 0 || spent_us() < budget) &&
+         (!limited || used_us() < limit_us)) {
     const Entry e = resume_ ? *resume_ : heap_.top();
     if (resume_) {
       resume_.reset();
@@ -389,8 +394,7 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     // the tet changed, or it would have been queued anew). Past the call's limit the first tet
     // stops too; a resumed tet always takes its next step, so every call makes progress.
     auto over = [&] {
-      return (!first && budget > 0 && spent_us() >= budget) ||
-             (limited && spent_us() >= limit_us);
+      return (!first && budget > 0 && spent_us() >= budget) || (limited && used_us() >= limit_us);
     };
     if (e.phase == kCollapsePhase && collapseBest(e.verts, created_by_cut, change)) continue;
     int phase = kFlipPhase;
