@@ -278,8 +278,9 @@ class MassSpring {
   struct StrongSpring {
     std::array<int, 2> ends;  // lower first
     double ratio;             // strongRatio() when found (it changes only where follow() looks)
-    bool operator<(const StrongSpring& o) const { return ends < o.ends; }
-    bool operator==(const StrongSpring& o) const { return ends == o.ends; }
+    bool operator<(const StrongSpring& o) const {
+      return ends[0] != o.ends[0] ? ends[0] < o.ends[0] : ends[1] < o.ends[1];
+    }
   };
   std::vector<StrongSpring> strong_;       // the strong springs, sorted by their ends
   double strong_dt_ = 0.0;                 // the step size of strong_; 0: find them all again

@@ -606,16 +606,30 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
   // come on the ticks that cut or collapse, the slowest; sorting the whole list and testing each
   // neighbour once per tet around it had made this 64% of follow()'s instructions).
   const auto kept = static_cast<std::ptrdiff_t>(strong_.size());
+  // Each spring at a changed vertex once, as strongRatio() takes it: from its lower end's list
+  // where that end changed, else looked up from the higher end (29,000 strongRatio() calls a
+  // replay, each with a lookup, had been a third of follow()).
+  const double h2 = strong_dt_ * strong_dt_, threshold = strongThreshold(strong_dt_);
+  auto free = [&](int v) { return mesh_->vertexAlive(v) && !fixed_[v]; };
+  auto test = [&](int a, int b, int spring) {  // a < b
+    if (!free(a) || !free(b)) return;
+    const double lighter = std::min(mass_[a], mass_[b]);
+    if (!(lighter > 0)) return;
+    const double ratio = h2 * springs_[spring].stiffness / lighter;
+    if (ratio >= threshold) strong_.push_back({{a, b}, ratio});
+  };
   for (int v : vertices) {
-    if (!mesh_->vertexAlive(v)) continue;
+    if (!free(v)) continue;  // none of its springs is strong
+    if (v < static_cast<int>(springs_from_.size()))
+      for (const SpringRef& r : springs_from_[v]) test(v, r.other, r.index);
     forEachNeighbour(v, [&](int u) {
-      const double ratio = strongRatio(u, v, strong_dt_);
-      if (ratio > 0) strong_.push_back({{std::min(u, v), std::max(u, v)}, ratio});
+      if (u > v || changed(u)) return;  // taken from u's list
+      const int spring = findSpring(u, v);
+      if (spring >= 0) test(u, v, spring);
     });
   }
   std::sort(strong_.begin() + kept, strong_.end());
   std::inplace_merge(strong_.begin(), strong_.begin() + kept, strong_.end());
-  strong_.erase(std::unique(strong_.begin(), strong_.end()), strong_.end());
   clusters_stale_ = true;
 }
 
