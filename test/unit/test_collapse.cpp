@@ -150,6 +150,18 @@ TEST(Collapse, WaitingTetsWakeWhenTheBusyStateChanges) {
 
 namespace {
 
+bool everyTet(int) { return true; }
+bool noneBusy(int) { return false; }
+
+// The block cut straight through (no collapse); every live tet listed as if the cut had made it.
+ChangeRecord cutThroughWithEveryTetNew(Tissue* tissue) {
+  EXPECT_EQ(replay(*tissue, line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3)), "");
+  ChangeRecord all;
+  for (int t = 0; t < tissue->mesh().tetSlots(); ++t)
+    if (tissue->mesh().tetAlive(t)) all.added_tets.push_back(t);
+  return all;
+}
+
 // Every tet of a cut block queued as if the cut had just made it, worked off at once and in
 // calls of process() with `budget_us` (or `call_budget_us` given to each call, if positive) and a
 // limit of `limit_us` a call (-1: none), the budget measured on a clock that advances 10 us a
@@ -158,14 +170,8 @@ namespace {
 CollapseCounts workedOffAtOnceAndInTicks(double budget_us, double limit_us,
                                          double call_budget_us = 0.0,
                                          double follow_us_per_tet = 0.0) {
-  const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
   Tissue tissue(withCollapse(false, 0.06), makeBlock());
-  EXPECT_EQ(replay(tissue, path), "");
-  ChangeRecord all;
-  for (int t = 0; t < tissue.mesh().tetSlots(); ++t)
-    if (tissue.mesh().tetAlive(t)) all.added_tets.push_back(t);
-  auto everyTet = [](int) { return true; };
-  auto noneBusy = [](int) { return false; };
+  const ChangeRecord all = cutThroughWithEveryTetNew(&tissue);
   const double tau = tissue.config().collapse.tau;
 
   TetMesh at_once = tissue.mesh(), in_ticks = tissue.mesh();
@@ -241,14 +247,8 @@ TEST(Collapse, ACallsOwnBudgetStandsForTheQueues) {
 // with a follow cost of 20 us a tet; then the same work in calls of 200 us with that cost ends
 // as if uninterrupted.
 TEST(Collapse, UnderALimitTheCostOfFollowingTheChangesCountsToo) {
-  const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
   Tissue tissue(withCollapse(false, 0.06), makeBlock());
-  ASSERT_EQ(replay(tissue, path), "");
-  ChangeRecord all;
-  for (int t = 0; t < tissue.mesh().tetSlots(); ++t)
-    if (tissue.mesh().tetAlive(t)) all.added_tets.push_back(t);
-  auto everyTet = [](int) { return true; };
-  auto noneBusy = [](int) { return false; };
+  const ChangeRecord all = cutThroughWithEveryTetNew(&tissue);
   auto changedInOneCall = [&](double follow_us_per_tet) {
     TetMesh mesh = tissue.mesh();
     CollapseQueue queue(&mesh, tissue.config().collapse.tau, 0.0);
