@@ -21,6 +21,16 @@ constexpr double kVolumeBudget = 5e-4;
 // tet's collapse checks take ~50-100 us, and each tick whose collapses or moves change the
 // springs costs the next physics steps CG iterations.
 constexpr double kMinChunkUs = 100.0;
+
+// The percent-th percentile of the first min(count, N) entries of a ring of the last N values.
+template <std::size_t N>
+double ringPercentile(const std::array<double, N>& ring, long long count, int percent) {
+  const auto n = static_cast<std::ptrdiff_t>(std::min<long long>(count, N));
+  std::array<double, N> sorted = ring;
+  const auto at = sorted.begin() + n * percent / 100;
+  std::nth_element(sorted.begin(), at, sorted.begin() + n);
+  return *at;
+}
 }  // namespace
 
 MeshData loadTissueMesh(const Config& config) {
@@ -92,8 +102,7 @@ void Tissue::reset() {
   busy_epoch_ = -1;
   physics_steps_ = 0;
   physics_slow_us_ = 0.0;
-  follows_ = 0;
-  collapse_->setFollowCost(0.0);
+  follows_ = 0;  // the new queue starts with no follow cost
   tick_times_.clear();
   initial_volume_ = mesh_.restVolume();
 }
@@ -158,11 +167,7 @@ bool Tissue::keepsDeadline() const {
 void Tissue::recordPhysicsTime(double us) {
   recent_physics_us_[physics_steps_++ % kRecentSteps] = us;
   if (physics_steps_ % kSlowEvery != 0 && physics_steps_ >= kSlowEvery) return;
-  const auto n = static_cast<std::ptrdiff_t>(std::min<long long>(physics_steps_, kRecentSteps));
-  std::array<double, kRecentSteps> sorted = recent_physics_us_;
-  const auto at = sorted.begin() + n * kSlowPercent / 100;
-  std::nth_element(sorted.begin(), at, sorted.begin() + n);
-  physics_slow_us_ = *at;
+  physics_slow_us_ = ringPercentile(recent_physics_us_, physics_steps_, kSlowPercent);
 }
 
 void Tissue::workCollapseQueueByDeadline(double tick_start_us) {
@@ -205,11 +210,7 @@ void Tissue::workCollapseQueue(double limit_us, double budget_us) {
   const std::size_t changed = collapsed.added_tets.size() + collapsed.removed_tets.size();
   if (limit_us < 0.0 || changed < kMinFollowSample) return;
   recent_follow_[follows_++ % kRecentFollows] = (nowUs() - start) / static_cast<double>(changed);
-  const auto n = static_cast<std::ptrdiff_t>(std::min<long long>(follows_, kRecentFollows));
-  std::array<double, kRecentFollows> sorted = recent_follow_;
-  const auto at = sorted.begin() + n * kSlowPercent / 100;
-  std::nth_element(sorted.begin(), at, sorted.begin() + n);
-  collapse_->setFollowCost(*at);
+  collapse_->setFollowCost(ringPercentile(recent_follow_, follows_, kSlowPercent));
 }
 
 std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {

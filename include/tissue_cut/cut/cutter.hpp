@@ -253,7 +253,7 @@ class Cutter {
   mutable std::vector<int> star_parent_, star_group_;  // its union-find, each root's group
   mutable std::vector<int> group_tets_, group_start_;  // its answer (see groupsAround())
   // separate()'s scratch: per vertex slot, the call that put it in the rings around the changes,
-  // the last waiting vertex whose rings held it; the rings.
+  // the last waiting vertex whose rings held it; the ring being grown, and the next.
   std::vector<unsigned> ring_stamp_, wait_stamp_;
   unsigned ring_call_ = 0, wait_call_ = 0;
   std::vector<int> ring_, ring_next_;

@@ -169,9 +169,9 @@ class MassSpring {
     std::array<double, 9 * kMaxCluster * kMaxCluster> inverse{};
     bool usable = false;  // the block was positive definite
   };
-  /// h^2 k / m of spring a-b (m its lighter end's mass) when that is at least strongThreshold(),
-  /// neither end fixed nor dead; 0 otherwise (no such spring included).
-  double strongRatio(int a, int b, double dt) const;
+  /// h^2 k / m of springs_[spring] (m its lighter end's mass) when that is at least
+  /// strongThreshold(), neither end fixed nor dead; 0 otherwise.
+  double strongRatio(int spring, double dt) const;
   /// kStrongCoupling, or the loaded mesh's 99th percentile of h^2 k / m where that is more (a
   /// stiff material or a long step): clusters are for what cuts make, not for a whole mesh.
   double strongThreshold(double dt) const;

@@ -844,39 +844,33 @@ void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, Chan
   // each waiting vertex when those are fewer (mostly one or two against 5-30 changed: growing
   // from the changes had been a tenth of the cut ticks' replacement work).
   const bool from_waiting = !all_waiting && deferred_.size() < ring.size();
-  for (int step = 0; step < 2 && !deferred_.empty() && !from_waiting; ++step) {
+  // ring becomes the vertices of the tets around it not stamped yet, stamped now.
+  auto grow = [&](std::vector<unsigned>* stamp, unsigned call) {
     std::vector<int>& next = ring_next_;
     next.clear();
     for (int v : ring)
       for (int t : mesh_->vertexTets(v))
         for (int x : mesh_->tet(t))
-          if (ring_stamp_[x] != ring_call_) {
-            ring_stamp_[x] = ring_call_;
+          if ((*stamp)[x] != call) {
+            (*stamp)[x] = call;
             next.push_back(x);
           }
     ring.swap(next);
-  }
+  };
+  for (int step = 0; step < 2 && !deferred_.empty() && !from_waiting; ++step)
+    grow(&ring_stamp_, ring_call_);
+  // From a waiting vertex w: its two rings, grown in `ring` (the changes' own are stamped).
   auto near_change = [&](int w) {
-    if (!from_waiting) return ring_stamp_[w] == ring_call_;
     if (ring_stamp_[w] == ring_call_) return true;
+    if (!from_waiting) return false;  // the changes' two rings are stamped
     nextStamp(&wait_stamp_, &wait_call_, mesh_->vertexSlots());
     wait_stamp_[w] = wait_call_;
-    std::vector<int>& first = ring_next_;  // w's first ring
-    first.clear();
-    for (int t : mesh_->vertexTets(w))
-      for (int x : mesh_->tet(t))
-        if (wait_stamp_[x] != wait_call_) {
-          if (ring_stamp_[x] == ring_call_) return true;
-          wait_stamp_[x] = wait_call_;
-          first.push_back(x);
-        }
-    for (int v : first)
-      for (int t : mesh_->vertexTets(v))
-        for (int x : mesh_->tet(t))
-          if (wait_stamp_[x] != wait_call_) {
-            if (ring_stamp_[x] == ring_call_) return true;
-            wait_stamp_[x] = wait_call_;
-          }
+    ring.assign(1, w);
+    for (int step = 0; step < 2; ++step) {
+      grow(&wait_stamp_, wait_call_);
+      for (int x : ring)
+        if (ring_stamp_[x] == ring_call_) return true;
+    }
     return false;
   };
   std::vector<int> touched = touched_in;

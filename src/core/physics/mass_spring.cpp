@@ -558,21 +558,22 @@ double MassSpring::strongThreshold(double dt) const {
   return std::max(kStrongCoupling, loaded);
 }
 
-double MassSpring::strongRatio(int a, int b, double dt) const {
+double MassSpring::strongRatio(int spring, double dt) const {
+  const Spring& s = springs_[spring];
+  const int a = s.a, b = s.b;
   if (!mesh_->vertexAlive(a) || !mesh_->vertexAlive(b) || fixed_[a] || fixed_[b]) return 0.0;
-  const int i = findSpring(a, b);
   const double lighter = std::min(mass_[a], mass_[b]);
-  if (i < 0 || !(lighter > 0)) return 0.0;
-  const double ratio = dt * dt * springs_[i].stiffness / lighter;
+  if (!(lighter > 0)) return 0.0;
+  const double ratio = dt * dt * s.stiffness / lighter;
   return ratio >= strongThreshold(dt) ? ratio : 0.0;
 }
 
 void MassSpring::rescanStrong(double dt) {
   strong_dt_ = dt;
   strong_.clear();
-  for (const Spring& s : springs_) {
-    const double ratio = strongRatio(s.a, s.b, dt);
-    if (ratio > 0) strong_.push_back({{s.a, s.b}, ratio});
+  for (int i = 0; i < static_cast<int>(springs_.size()); ++i) {
+    const double ratio = strongRatio(i, dt);
+    if (ratio > 0) strong_.push_back({{springs_[i].a, springs_[i].b}, ratio});
   }
   std::sort(strong_.begin(), strong_.end());
   clusters_stale_ = true;
@@ -606,26 +607,21 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
   // come on the ticks that cut or collapse, the slowest; sorting the whole list and testing each
   // neighbour once per tet around it had made this 64% of follow()'s instructions).
   const auto kept = static_cast<std::ptrdiff_t>(strong_.size());
-  // Each spring at a changed vertex once, as strongRatio() takes it: from its lower end's list
-  // where that end changed, else looked up from the higher end (29,000 strongRatio() calls a
-  // replay, each with a lookup, had been a third of follow()).
-  const double h2 = strong_dt_ * strong_dt_, threshold = strongThreshold(strong_dt_);
-  auto free = [&](int v) { return mesh_->vertexAlive(v) && !fixed_[v]; };
-  auto test = [&](int a, int b, int spring) {  // a < b
-    if (!free(a) || !free(b)) return;
-    const double lighter = std::min(mass_[a], mass_[b]);
-    if (!(lighter > 0)) return;
-    const double ratio = h2 * springs_[spring].stiffness / lighter;
-    if (ratio >= threshold) strong_.push_back({{a, b}, ratio});
+  // Each spring at a changed vertex once: from its lower end's list where that end changed, else
+  // looked up from the higher end (a lookup for every neighbour of every changed vertex had been
+  // a third of follow()).
+  auto test = [&](int spring) {
+    const double ratio = strongRatio(spring, strong_dt_);
+    if (ratio > 0) strong_.push_back({{springs_[spring].a, springs_[spring].b}, ratio});
   };
   for (int v : vertices) {
-    if (!free(v)) continue;  // none of its springs is strong
+    if (!mesh_->vertexAlive(v) || fixed_[v]) continue;  // none of its springs is strong
     if (v < static_cast<int>(springs_from_.size()))
-      for (const SpringRef& r : springs_from_[v]) test(v, r.other, r.index);
+      for (const SpringRef& r : springs_from_[v]) test(r.index);
     forEachNeighbour(v, [&](int u) {
       if (u > v || changed(u)) return;  // taken from u's list
       const int spring = findSpring(u, v);
-      if (spring >= 0) test(u, v, spring);
+      if (spring >= 0) test(spring);
     });
   }
   std::sort(strong_.begin() + kept, strong_.end());
