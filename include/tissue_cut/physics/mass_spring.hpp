@@ -245,6 +245,9 @@ class MassSpring {
   std::vector<Vec3> warm_prev_;                   // the one before (warm start by extrapolation)
   std::vector<Vec3> warm_prev2_;                  // and the one before that
   bool quadratic_next_ = false;  // the last step's quadratic extrapolation was the closer
+  /// Steps whose answers warm_, warm_prev_ and warm_prev2_ hold, up to 3 (0 after a roll-back):
+  /// what the warm start may extrapolate from (see stepImplicit()).
+  int warm_history_ = 0;
   std::vector<TetVerts> tet_copy_;                // each live tet's vertices, from the records
   std::vector<double> tet_volume_;                // each live tet's rest volume, from the records
   std::vector<int> follow_vertices_;              // follow()'s scratch, kept for its capacity

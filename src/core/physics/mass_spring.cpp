@@ -140,6 +140,7 @@ MassSpring::MassSpring(TetMesh* mesh, const MassSpringParams& params)
 void MassSpring::setParams(const MassSpringParams& params) {
   const bool stiffness_changed = params.young_modulus != params_.young_modulus;
   const bool mass_changed = params.density != params_.density;
+  if (params.implicit != params_.implicit) warm_history_ = 0;  // semi-implicit steps keep none
   params_ = params;
   strong_dt_ = 0.0;  // found again at the next step
   makeTeam();
@@ -922,7 +923,16 @@ bool MassSpring::stepImplicit(double dt) {
   // linearly, or quadratically where that predicted the last step better (see the end of this
   // function; 4.0 -> 3.5 iterations a step on the 20k organ); zero where the row is held (fixed
   // or dead vertices).
-  const bool quadratic = params_.quadratic_warm_start && quadratic_next_;
+  // Each extrapolation needs as many past answers: with fewer (the first steps, the step after
+  // a roll-back), fewer are used. With one, that answer as it is (a linear guess from it and a
+  // zero would double it: free fall under gravity changes the velocity by the same g h each
+  // step). With none, each vertex's answer were its springs' stiffness left out: its force over
+  // its inertia (at rest on the springs' rest lengths, g h / (1 + h alpha), the answer of every
+  // vertex whose neighbours move alike). The 20k organ's first two steps took 9 CG iterations
+  // each from zero and from twice the first answer.
+  const int history = warm_history_;
+  const bool quadratic = params_.quadratic_warm_start && quadratic_next_ && history >= 3;
+  if (history == 0) forces(&b_);  // set again below, before it is read as b
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
     unsigned char* held = held_.data();
@@ -930,12 +940,21 @@ bool MassSpring::stepImplicit(double dt) {
     const Vec3* warm = warm_.data();
     const Vec3* warm_prev = warm_prev_.data();
     const Vec3* warm_prev2 = warm_prev2_.data();
+    const Vec3* force = b_.data();
+    const double* inertia = inertia_.data();
+    const double impulse = dt / mass_damping_;
     for (int v = begin; v < end; ++v) {
       held[v] = fixed_[v] || !mesh_->vertexAlive(v);
-      const Vec3 linear = linearGuess(warm[v], warm_prev[v]);
-      dv[v] = held[v]      ? Vec3::Zero()
-              : quadratic ? Vec3(linear + curvature(warm[v], warm_prev[v], warm_prev2[v]))
-                          : linear;
+      if (held[v]) {
+        dv[v].setZero();
+      } else if (history == 0) {
+        dv[v] = inertia[v] > 0 ? Vec3(impulse / inertia[v] * force[v]) : Vec3::Zero();
+      } else if (history == 1) {
+        dv[v] = warm[v];
+      } else {
+        const Vec3 linear = linearGuess(warm[v], warm_prev[v]);
+        dv[v] = quadratic ? Vec3(linear + curvature(warm[v], warm_prev[v], warm_prev2[v])) : linear;
+      }
     }
   });
   refreshClusters(dt);
@@ -1093,7 +1112,9 @@ bool MassSpring::stepImplicit(double dt) {
     partial_[part].sum[0] = linear_miss;
     partial_[part].sum[1] = quadratic_miss;
   });
-  quadratic_next_ = partialSum(1) < partialSum(0);
+  // The misses compare extrapolations from three past answers only where there were three.
+  quadratic_next_ = history >= 3 && partialSum(1) < partialSum(0);
+  warm_history_ = std::min(history + 1, 3);
   warm_prev2_.swap(warm_prev_);
   warm_prev_.swap(warm_);
   warm_.swap(dv_);
@@ -1201,6 +1222,7 @@ std::string MassSpring::step(double dt) {
   std::fill(warm_.begin(), warm_.end(), Vec3::Zero());
   std::fill(warm_prev_.begin(), warm_prev_.end(), Vec3::Zero());
   std::fill(warm_prev2_.begin(), warm_prev2_.end(), Vec3::Zero());
+  warm_history_ = 0;
   ++instabilities_;
   std::ostringstream msg;
   msg << "physics step unstable (" << (finite ? "speed " : "non-finite state, speed ") << worst
