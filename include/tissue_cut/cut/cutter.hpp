@@ -159,6 +159,9 @@ class Cutter {
   /// Tets just filed (anew) that the grid could return for a box inside the cached one join it.
   void joinNearCache(const std::vector<int>& tets);
   void rebuildGrid();
+  /// Grows the per-slot scratch of the searches and of the separation to the mesh's slots (see
+  /// reset()).
+  void sizeScratch();
   /// The grid's query, from candidates kept while the blade stays near (see near_cache_).
   void gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out);
   /// Makes near_cache_ hold the grid's candidates around [lo, hi].
