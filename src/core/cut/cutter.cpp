@@ -129,7 +129,10 @@ void Cutter::joinNearCache(const std::vector<int>& tets) {
     const std::size_t i = it - near_cache_.begin();
     const bool cached = it != near_cache_.end() && *it == t;
     if (!grid_.filedNear(*mesh_, t, near_cache_lo_, near_cache_hi_)) {
-      if (cached) near_gap_[i] = 0.0;  // a slot reused far away: left to the box filter
+      if (cached) {
+        near_gap_[i] = 0.0;  // a slot reused far away: left to the box filter
+        keepClose(i, false);
+      }
       continue;
     }
     // A tet filed anew is new or has moved (refiled, or a slot reused): its gap is taken now.
@@ -140,7 +143,19 @@ void Cutter::joinNearCache(const std::vector<int>& tets) {
     } else {
       near_gap_[i] = gap;
     }
+    keepClose(i, !cached);
   }
+}
+
+void Cutter::keepClose(std::size_t place, bool inserted) {
+  if (!closeKept()) return;  // made anew before the next sweep looks
+  const int i = static_cast<int>(place);
+  auto at = std::lower_bound(near_close_.begin(), near_close_.end(), i);
+  if (inserted)
+    for (auto shift = at; shift != near_close_.end(); ++shift) ++*shift;
+  // A place whose gap grew past gap_far_ may stay: the sweep tests each gap it looks at.
+  if (near_gap_[place] <= gap_far_ && (inserted || at == near_close_.end() || *at != i))
+    near_close_.insert(at, i);
 }
 
 void Cutter::cacheNear(const Vec3& lo, const Vec3& hi) {
@@ -220,6 +235,9 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
       near_gap_[i] = gapOf(near_cache_[i]);
     }
     gap_valid_ = true;
+    near_close_.clear();
+    for (std::size_t i = 0; i < near_cache_.size(); ++i)
+      if (near_gap_[i] <= gap_far_) near_close_.push_back(static_cast<int>(i));
   }
   gap_blade_ += step;
   gap_last_ = to;
@@ -238,9 +256,29 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
     for (std::size_t i = 0; i < near_cache_.size(); ++i)
       near_gap_[i] = mesh_->tetAlive(near_cache_[i]) ? gapOf(near_cache_[i]) + gap_tissue_ : 0.0;
     gap_far_ = HUGE_VAL;
+    near_close_.resize(near_cache_.size());
+    std::iota(near_close_.begin(), near_close_.end(), 0);
   }
+  // Only the close places can pass the test below (reach and wound_reach are under gap_far_),
+  // and a pending tet's pieces wherever they are: both, merged in order.
+  far_pieces_.clear();
+  for (const auto& [pid, p] : pending_)
+    for (int t : p.pieces) {
+      const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
+      if (it == near_cache_.end() || *it != t) continue;
+      const std::size_t i = it - near_cache_.begin();
+      if (!(near_gap_[i] <= gap_far_)) far_pieces_.push_back(static_cast<int>(i));
+    }
+  std::sort(far_pieces_.begin(), far_pieces_.end());
   out->clear();
-  for (std::size_t i = 0; i < near_cache_.size(); ++i) {
+  auto close = near_close_.begin();
+  auto far = far_pieces_.begin();
+  while (close != near_close_.end() || far != far_pieces_.end()) {
+    // A place may be in both (a close gap that grew since): looked at once.
+    const bool take_close =
+        far == far_pieces_.end() || (close != near_close_.end() && *close < *far);
+    if (!take_close && close != near_close_.end() && *close == *far) ++close;
+    const std::size_t i = take_close ? *close++ : *far++;
     const int t = near_cache_[i];
     // A pending tet's pieces are always looked at: the tet, not a piece, decides its part.
     if (!(near_gap_[i] <= reach) && !isPendingPiece(t) &&
