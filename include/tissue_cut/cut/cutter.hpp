@@ -12,6 +12,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <set>
@@ -142,7 +143,8 @@ class Cutter {
                     bool stroke_end = false);
   /// Splits the vertices of `touched`, and the waiting ones near a change since the last call (all
   /// of them with `all_waiting`), where the boundary stays a 2-manifold; the others wait.
-  void separate(const std::vector<int>& touched, bool all_waiting, ChangeRecord* change);
+  /// (`touched` is the caller's scratch: sorted here and grown by the waiting vertices tried.)
+  void separate(std::vector<int>* touched, bool all_waiting, ChangeRecord* change);
   /// The groups of v's star: its tets joined through faces that are not marked, in the order of
   /// their first tets' places in the star, each in star order. Returns how many; group k is
   /// group_tets_[group_start_[k] .. group_start_[k + 1]) (until the next call).
@@ -273,6 +275,16 @@ class Cutter {
   // candidate that splits or is held back, the call that put it in the check.
   std::vector<std::array<int, 4>> corner_group_;
   std::vector<unsigned char> open_face_;
+  // heldSplits()' lists, kept for their capacity (eight vectors grown each call had been a tenth
+  // of the separation): its candidates and their stars' tets, each round's region, the faces
+  // opened, the vertices to check and those held; a checked vertex's boundary links.
+  std::vector<int> held_splitting_, held_stars_, held_region_, held_opened_, held_check_, held_;
+  struct FanEdge {
+    std::int64_t copy, prev, next;  // around the copy of the vertex, the boundary runs prev -> next
+  };
+  std::vector<FanEdge> held_fan_;
+  std::vector<int> final_ids_, final_touched_;         // finalizeLeft()'s lists, kept likewise
+  std::vector<int> separate_before_, separate_after_;  // separate()'s waiting lists, likewise
   std::vector<unsigned> region_stamp_, check_stamp_;
   unsigned region_call_ = 0, check_call_ = 0;
   std::vector<unsigned char> split_state_;

@@ -644,13 +644,15 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
 
 void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change,
                           bool stroke_end) {
-  std::vector<int> ids;
+  std::vector<int>& ids = final_ids_;
+  ids.clear();
   for (auto& [pid, p] : pending_) {
     if (p.dirty) subdivide(pid, change);
     ids.push_back(pid);
   }
   std::sort(ids.begin(), ids.end());
-  std::vector<int> touched;
+  std::vector<int>& touched = final_touched_;
+  touched.clear();
   for (int pid : ids) {
     const TetVerts& c = pending_[pid].cut.corner;
     if (blade &&
@@ -663,7 +665,7 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
   // last try (the separation depends on nothing else, so a retry would only defer them again),
   // and all of them once a stroke ends (see separate()).
   if (!touched.empty() || (!deferred_.empty() && (separated_at_ != epoch_ || stroke_end)))
-    separate(touched, stroke_end, change);
+    separate(&touched, stroke_end, change);
   else if (deferred_.empty())
     changed_near_.clear();  // nothing waits near these changes
 }
@@ -740,7 +742,10 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   growSlots(&open_face_, mesh_->tetSlots(), {});
   growSlots(&split_state_, mesh_->vertexSlots(), {});
   constexpr unsigned char kSplits = 1, kHeld = 2;  // split_state_: a candidate, held back
-  std::vector<int> splitting, stars;
+  std::vector<int>& splitting = held_splitting_;
+  std::vector<int>& stars = held_stars_;
+  splitting.clear();
+  stars.clear();
   for (int v : verts) {
     if (!mesh_->vertexAlive(v)) continue;
     const int groups = groupsAround(v);
@@ -769,11 +774,11 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
     return (static_cast<Key>(mesh_->tet(t)[corner]) << 20) |
            static_cast<Key>(corner_group_[t][corner] + 1);
   };
-  std::vector<int> region, opened, check, held;
-  struct FanEdge {
-    Key copy, prev, next;  // around the copy of the vertex, the boundary runs prev -> next
-  };
-  std::vector<FanEdge> fan;
+  std::vector<int>& region = held_region_;
+  std::vector<int>& opened = held_opened_;
+  std::vector<int>& check = held_check_;
+  std::vector<int>& held = held_;
+  std::vector<FanEdge>& fan = held_fan_;
   for (int round = 0; round < 32; ++round) {
     nextStamp(&region_stamp_, &region_call_, mesh_->tetSlots());
     region.clear();
@@ -881,7 +886,7 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   return done(false);
 }
 
-void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, ChangeRecord* change) {
+void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeRecord* change) {
   // Whether a vertex can split depends on its star and marks (its groups), on the faces it and its
   // neighbours would open (their vertices are in its first ring) and on the boundary fans around
   // those (tets of its second ring). A waiting vertex farther than two rings from every change
@@ -932,14 +937,15 @@ void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, Chan
     }
     return false;
   };
-  std::vector<int> touched = touched_in;
-  std::set<int> before;  // the waiting vertices tried again
+  std::vector<int>& touched = *touched_io;
+  std::vector<int>& before = separate_before_;  // the waiting vertices tried again, in order
+  before.clear();
   for (auto it = deferred_.begin(); it != deferred_.end();) {
     if (!all_waiting && mesh_->vertexAlive(*it) && !near_change(*it)) {
       ++it;  // waits on, untried
       continue;
     }
-    before.insert(*it);
+    before.push_back(*it);
     touched.push_back(*it);
     it = deferred_.erase(it);
   }
@@ -948,18 +954,19 @@ void Cutter::separate(const std::vector<int>& touched_in, bool all_waiting, Chan
   separated_at_ = epoch_;  // before the splits below: those make it try again next tick
   counts_.separation_tries += static_cast<long long>(touched.size());
   const std::vector<int> held = heldSplits(touched);
-  std::set<int> after;  // the vertices tried that wait now
+  std::vector<int>& after = separate_after_;  // the vertices tried that wait now, in order
+  after.clear();
   bool reclosed = false;  // a refused split closed faces for good: groups may have merged
   for (int v : touched) {
     if (!mesh_->vertexAlive(v)) continue;
     const bool waits = std::binary_search(held.begin(), held.end(), v);
     if (waits && !reclosed) {
-      after.insert(v);  // held with two groups or more; splits before it did not change them
+      after.push_back(v);  // held with two groups or more; splits before it did not change them
       continue;
     }
     if (groupsAround(v) < 2) continue;
     if (waits) {
-      after.insert(v);
+      after.push_back(v);
       continue;
     }
     // The groups as vectors: replace() takes the tets it removes (and renames) as one.
