@@ -278,7 +278,8 @@ class Cutter {
   // heldSplits()' lists, kept for their capacity (eight vectors grown each call had been a tenth
   // of the separation): its candidates and their stars' tets, each round's region, the faces
   // opened, the vertices to check and those held; a checked vertex's boundary links.
-  std::vector<int> held_splitting_, held_stars_, held_region_, held_opened_, held_check_, held_;
+  std::vector<int> held_splitting_, held_stars_, held_region_, held_opened_, held_check_,
+      held_back_;
   struct FanEdge {
     std::int64_t copy, prev, next;  // around the copy of the vertex, the boundary runs prev -> next
   };

@@ -777,7 +777,7 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   std::vector<int>& region = held_region_;
   std::vector<int>& opened = held_opened_;
   std::vector<int>& check = held_check_;
-  std::vector<int>& held = held_;
+  std::vector<int>& held = held_back_;
   std::vector<FanEdge>& fan = held_fan_;
   for (int round = 0; round < 32; ++round) {
     nextStamp(&region_stamp_, &region_call_, mesh_->tetSlots());

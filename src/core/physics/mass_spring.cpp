@@ -1219,10 +1219,7 @@ std::string MassSpring::step(double dt) {
   // Roll back and damp: the tissue keeps its last good shape, at rest.
   mesh_->currentPositions() = x0_;
   for (Vec3& u : mesh_->velocities()) u.setZero();
-  std::fill(warm_.begin(), warm_.end(), Vec3::Zero());
-  std::fill(warm_prev_.begin(), warm_prev_.end(), Vec3::Zero());
-  std::fill(warm_prev2_.begin(), warm_prev2_.end(), Vec3::Zero());
-  warm_history_ = 0;
+  warm_history_ = 0;  // the next steps read none of the answers before (see stepImplicit())
   ++instabilities_;
   std::ostringstream msg;
   msg << "physics step unstable (" << (finite ? "speed " : "non-finite state, speed ") << worst
