@@ -322,7 +322,7 @@ TEST(Physics, ANewDensityReachesTheInertiaOfTheNextStep) {
     same.current(v) = mesh.current(v);
     same.velocity(v) = mesh.velocity(v);
   }
-  std::vector<Vec3> before = mesh.velocities();
+  const std::vector<Vec3> before = mesh.velocities();
   MassSpringParams dense = p;
   dense.density = 4.0 * p.density;
   physics.setParams(dense);
