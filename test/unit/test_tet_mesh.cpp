@@ -277,6 +277,105 @@ TEST(TetMesh, MovingAVertexEqualsReplacingItsStarByTheSameTets) {
   EXPECT_EQ(moved.validate(), "");
 }
 
+namespace {
+
+// Every slot, tet, adjacency, star order and the boundary count agree (ASSERTs: the first
+// difference stops the test, named with `what`).
+void expectSameMesh(const TetMesh& a, const TetMesh& b, const std::string& what) {
+  ASSERT_EQ(a.tetSlots(), b.tetSlots()) << what;
+  for (int t = 0; t < a.tetSlots(); ++t) {
+    ASSERT_EQ(a.tetAlive(t), b.tetAlive(t)) << what << ", tet " << t;
+    if (!a.tetAlive(t)) continue;
+    ASSERT_EQ(a.tet(t), b.tet(t)) << what << ", tet " << t;
+    for (int f = 0; f < 4; ++f)
+      ASSERT_EQ(a.neighbor(t, f), b.neighbor(t, f)) << what << ", tet " << t;
+  }
+  ASSERT_EQ(a.vertexSlots(), b.vertexSlots()) << what;
+  for (int u = 0; u < a.vertexSlots(); ++u)
+    ASSERT_EQ(a.vertexTets(u), b.vertexTets(u)) << what << ", vertex " << u;
+  ASSERT_EQ(a.numBoundaryFaces(), b.numBoundaryFaces()) << what;
+}
+
+}  // namespace
+
+// A cut opens a vertex by giving a group of its tets a copy of it; renameVertex must leave the
+// mesh and the record exactly as replacing the group by its renamed tets does (slots, adjacency,
+// the order of every star: later choices depend on them).
+TEST(TetMesh, RenamingAVertexEqualsReplacingItsTetsByTheRenamedTets) {
+  const MeshData b = makeBlock();
+  TetMesh renamed(b.V, b.T);
+  std::mt19937 rng(5);
+  for (int k = 0; k < 6; ++k) {  // free slots in the list, as cuts leave them
+    const auto edges = renamed.edges();
+    const auto [a, c] = edges[rng() % edges.size()];
+    bisectEdge(renamed, a, c, nullptr);
+  }
+  TetMesh replaced = renamed;
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int splits = 0, opened = 0;
+  for (int k = 0; k < 200 && splits < 40; ++k) {
+    const int v = static_cast<int>(rng() % renamed.vertexSlots());
+    if (!renamed.vertexAlive(v) || renamed.vertexTets(v).size() < 2) continue;
+    // The tets on one side of a plane through v, as a cut through it would group them.
+    const Vec3 n(unit(rng), unit(rng), unit(rng));
+    std::vector<int> group;
+    for (int t : renamed.vertexTets(v)) {
+      Vec3 centre = Vec3::Zero();
+      for (int x : renamed.tet(t)) centre += 0.25 * renamed.rest(x);
+      if (n.dot(centre - renamed.rest(v)) > 0) group.push_back(t);
+    }
+    if (group.empty() || group.size() == renamed.vertexTets(v).size()) continue;
+    const std::string what = "split " + std::to_string(splits) + " of vertex " + std::to_string(v);
+    ChangeRecord by_rename, by_replace;
+    const int boundary = renamed.numBoundaryFaces();
+    const int copy = renamed.addVertex({{v, 1.0}}, &by_rename);
+    const std::vector<int> ids = renamed.renameVertex(group, v, copy, &by_rename);
+    ASSERT_EQ(replaced.addVertex({{v, 1.0}}, &by_replace), copy);
+    std::vector<TetVerts> tets;
+    for (int t : group) {
+      TetVerts tv = replaced.tet(t);
+      *std::find(tv.begin(), tv.end(), v) = copy;
+      tets.push_back(tv);
+    }
+    EXPECT_EQ(ids, replaced.replaceTets(group, tets, &by_replace, &group)) << what;
+    EXPECT_EQ(by_rename.removed_tets, by_replace.removed_tets) << what;
+    EXPECT_EQ(by_rename.added_tets, by_replace.added_tets) << what;
+    EXPECT_EQ(by_rename.added_from, by_replace.added_from) << what;
+    EXPECT_EQ(by_rename.added_vertices, by_replace.added_vertices) << what;
+    expectSameMesh(renamed, replaced, what);
+    if (HasFatalFailure()) return;
+    EXPECT_TRUE(renamed.vertexTets(copy).size() == group.size()) << what;
+    opened += renamed.numBoundaryFaces() > boundary;
+    ++splits;
+  }
+  EXPECT_EQ(splits, 40);
+  EXPECT_GT(opened, 20);  // most splits open faces (the case that differs from moveVertex)
+}
+
+// renameVertex checks before it changes anything: a copy with tets, a tet without v, a dead or
+// repeated tet, v as its own copy; each refused with the mesh as it was.
+TEST(TetMesh, RefusedRenameLeavesTheMeshUnchanged) {
+  TetMesh mesh = twoTets();
+  const TetMesh before = mesh;
+  const int copy = mesh.addVertex({{1, 1.0}}, nullptr);
+  const TetMesh with_copy = mesh;
+  EXPECT_THROW(mesh.renameVertex({0}, 1, 4, nullptr), std::logic_error);        // 4 has a tet
+  EXPECT_THROW(mesh.renameVertex({0, 1}, 0, copy, nullptr), std::logic_error);  // 1 lacks 0
+  EXPECT_THROW(mesh.renameVertex({0, 0}, 1, copy, nullptr), std::logic_error);
+  EXPECT_THROW(mesh.renameVertex({7}, 1, copy, nullptr), std::logic_error);
+  EXPECT_THROW(mesh.renameVertex({0}, 1, 1, nullptr), std::logic_error);
+  expectSameMesh(mesh, with_copy, "after the refusals");
+  // And one that goes through: tet 0 takes the copy of 1, and face (1, 2, 3) opens on both sides.
+  const std::vector<int> ids = mesh.renameVertex({0}, 1, copy, nullptr);
+  EXPECT_EQ(ids, std::vector<int>{0});
+  EXPECT_EQ(mesh.tet(0), (TetVerts{0, copy, 2, 3}));
+  EXPECT_EQ(mesh.neighbor(0, 0), -1);
+  EXPECT_EQ(mesh.neighbor(1, 0), -1);
+  EXPECT_EQ(mesh.numBoundaryFaces(), before.numBoundaryFaces() + 2);
+  EXPECT_EQ(mesh.vertexTets(1), std::vector<int>{1});
+  EXPECT_EQ(mesh.vertexTets(copy), std::vector<int>{0});
+}
+
 TEST(TetMesh, RemovedSlotsAreReusedAndAnnounced) {
   TetMesh mesh = twoTets();
   ChangeRecord record;

@@ -157,6 +157,14 @@ class Cutter {
   void setPieces(int pid, const std::vector<int>& pieces);
   bool replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids);
+  /// replace() of `tets` by themselves with v renamed `copy` (TetMesh::renameVertex).
+  bool splitOff(const std::vector<int>& tets, int v, int copy, ChangeRecord* change,
+                std::vector<int>* ids);
+  /// Makes a change by `make` (which fills the record it is given, or throws std::logic_error
+  /// with the mesh unchanged) and follows it; false when refused.
+  bool changeMesh(const std::vector<int>& remove,
+                  const std::function<std::vector<int>(ChangeRecord*)>& make,
+                  ChangeRecord* change, std::vector<int>* ids);
   void refreshGrid(const ChangeRecord& change);
   /// Tets just filed (anew) that the grid could return for a box inside the cached one join it.
   void joinNearCache(const std::vector<int>& tets);

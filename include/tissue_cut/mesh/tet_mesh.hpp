@@ -197,6 +197,15 @@ class TetMesh {
   /// tet of the star inverts. Throws std::logic_error (mesh unchanged) for a dead vertex or
   /// parent, or when a tet of the star would have no positive rest volume.
   void moveVertex(int v, const std::vector<VertexParent>& parents, ChangeRecord* record);
+  /// The tets `tets` (live, each holding v) take `copy` (live, in no tet yet: a vertex just
+  /// added) in place of v: the faces among them stay joined, those through v to other tets open.
+  /// Leaves the mesh and `record` exactly as replaceTets(tets, the renamed tets, record, &tets)
+  /// would (the same slots, adjacency and star orders), without its searches. Returns the new
+  /// slots in the order of `tets`. Throws std::logic_error (mesh unchanged) for a dead or repeated
+  /// tet, a tet without v, a copy that is dead, v, or already in a tet, or a renamed tet without
+  /// positive rest volume.
+  std::vector<int> renameVertex(const std::vector<int>& tets, int v, int copy,
+                                ChangeRecord* record);
   /// Moves every tet of `removed` onto `survivor`; tets holding both vanish; `removed` dies.
   /// Geometry of the survivor is unchanged.
   void mergeVertices(int removed, int survivor, ChangeRecord* record);
@@ -210,6 +219,11 @@ class TetMesh {
  private:
   void linkTet(int t);
   void unlinkTet(int t);
+  /// Reorders a face's vertices so that *a has the fewest tets (a face search walks its star).
+  void smallestStarFirst(int* a, int* b, int* c) const;
+  /// Puts the tet of slot star[i] into slot star[n - 1 - i] with v renamed `copy` (v itself:
+  /// none), as replaceTets(star, those tets, record, &star) would; see renameVertex().
+  void restack(const std::vector<int>& star, int v, int copy, ChangeRecord* record);
   int allocateTet();
   int allocateVertex();
 
@@ -224,7 +238,7 @@ class TetMesh {
   std::vector<unsigned> removing_;
   unsigned removing_stamp_ = 0;
   std::vector<std::array<int, 3>> face_scratch_;
-  // moveVertex()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
+  // restack()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
   std::vector<int> move_place_, move_vertices_;
   std::vector<TetVerts> move_tets_;
   std::vector<std::array<int, 4>> move_neighbors_;

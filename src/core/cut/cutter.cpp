@@ -292,10 +292,25 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
 
 bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                      ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids) {
+  return changeMesh(
+      remove, [&](ChangeRecord* local) { return mesh_->replaceTets(remove, add, local, from); },
+      change, ids);
+}
+
+bool Cutter::splitOff(const std::vector<int>& tets, int v, int copy, ChangeRecord* change,
+                      std::vector<int>* ids) {
+  return changeMesh(
+      tets, [&](ChangeRecord* local) { return mesh_->renameVertex(tets, v, copy, local); }, change,
+      ids);
+}
+
+bool Cutter::changeMesh(const std::vector<int>& remove,
+                        const std::function<std::vector<int>(ChangeRecord*)>& make,
+                        ChangeRecord* change, std::vector<int>* ids) {
   ChangeRecord local;
   std::vector<int> added;
   try {
-    added = mesh_->replaceTets(remove, add, &local, from);
+    added = make(&local);
   } catch (const std::logic_error& e) {
     // TetMesh checks a change whole before making it: refused, the mesh is as it was. The caller
     // leaves the cut closed there; the tick reports it and the model goes on.
@@ -997,16 +1012,11 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
           marks.emplace_back(key, u >= 0 && in_group.count(u) > 0);
         }
       }
-      std::vector<TetVerts> renamed;
       std::set<int> pendings;
-      for (int t : tets) {
-        TetVerts tv = mesh_->tet(t);
-        tv[localIndex(tv, v)] = copy;
-        renamed.push_back(tv);
+      for (int t : tets)
         if (pending_of_[t] >= 0) pendings.insert(pending_of_[t]);
-      }
       std::vector<int> ids;
-      if (!replace(tets, renamed, &local, &tets, &ids)) {
+      if (!splitOff(tets, v, copy, &local, &ids)) {
         // Refused: no copy; the faces that would have opened here stay closed for good.
         ChangeRecord gone;  // appended, so that the copy never existed
         mesh_->removeVertex(copy, &gone);

@@ -235,12 +235,21 @@ bool TetMesh::hasEdge(int a, int b) const {
 }
 
 int TetMesh::faceTet(int a, int b, int c, int except) const {
+  // The face's tets are in each of its vertices' stars: the smallest is searched (a point a cut
+  // made has a handful of tets, an original vertex tens). At most two tets hold a face, so the
+  // answer does not depend on which.
+  smallestStarFirst(&a, &b, &c);
   for (int t : vertex_tets_[a]) {
     if (t == except) continue;
     const TetVerts& tv = tets_[t];
     if (contains(tv, b) && contains(tv, c)) return t;
   }
   return -1;
+}
+
+void TetMesh::smallestStarFirst(int* a, int* b, int* c) const {
+  if (vertex_tets_[*b].size() < vertex_tets_[*a].size()) std::swap(*a, *b);
+  if (vertex_tets_[*c].size() < vertex_tets_[*a].size()) std::swap(*a, *c);
 }
 
 std::vector<std::pair<int, int>> TetMesh::edges() const {
@@ -425,9 +434,11 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
     const FaceKey key = new_faces[i];
     int count = 0;
     for (; i < new_faces.size() && new_faces[i] == key; ++i) ++count;
+    int a = key[0], b = key[1], c = key[2];
+    smallestStarFirst(&a, &b, &c);
     int kept = 0;
-    for (int t : vertex_tets_[key[0]])
-      if (!removed(t) && contains(tets_[t], key[1]) && contains(tets_[t], key[2])) ++kept;
+    for (int t : vertex_tets_[a])
+      if (!removed(t) && contains(tets_[t], b) && contains(tets_[t], c)) ++kept;
     if (count + kept > 2)
       throw std::logic_error("TetMesh::replaceTets: face (" + std::to_string(key[0]) + ", " +
                              std::to_string(key[1]) + ", " + std::to_string(key[2]) +
@@ -471,13 +482,9 @@ void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, Change
     u += p.weight * velocity_[p.vertex];
   }
   // The star is announced as replaced by the same tets, exactly as replaceTets(star, star's tets,
-  // record, &star) would leave it (that is what this did): the slots taken back in reverse
-  // order (the free list is a stack), so the tet of star[i] moves to slot star[n - 1 - i]; each
-  // vertex's list keeps its other tets in order and gets the star's new slots at its end;
-  // adjacency follows the slots. Without its checks and unlinking and relinking: nothing but
-  // the numbering changes (a smoothing move costs a tenth of what it did).
+  // record, &star) would leave it (that is what this did), without its checks and searches:
+  // nothing but the numbering changes (a smoothing move costs a tenth of what it did).
   const std::vector<int> star = vertex_tets_[v];
-  const int n = static_cast<int>(star.size());
   const Vec3 old_rest = rest_[v];
   rest_[v] = r;
   for (int t : star) {
@@ -491,6 +498,45 @@ void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, Change
   }
   current_[v] = c;
   velocity_[v] = u;
+  restack(star, v, v, record);
+}
+
+std::vector<int> TetMesh::renameVertex(const std::vector<int>& tets, int v, int copy,
+                                       ChangeRecord* record) {
+  auto refuse = [](const std::string& why) {
+    throw std::logic_error("TetMesh::renameVertex: " + why);
+  };
+  if (v < 0 || v >= vertexSlots() || !vertex_alive_[v]) refuse("dead vertex " + std::to_string(v));
+  if (copy < 0 || copy >= vertexSlots() || !vertex_alive_[copy] || copy == v)
+    refuse("the copy " + std::to_string(copy) + " is not a live vertex other than " +
+           std::to_string(v));
+  // A copy without tets is in no face yet: the renamed faces through it are those of `tets`,
+  // each shared as before or by one of them alone. (Otherwise replaceTets checks it all.)
+  if (!vertex_tets_[copy].empty()) refuse("the copy " + std::to_string(copy) + " already has tets");
+  nextStamp(&removing_, &removing_stamp_, tets_.size());
+  for (int t : tets) {
+    if (t < 0 || t >= tetSlots() || !tet_alive_[t]) refuse("dead tet " + std::to_string(t));
+    if (removing_[t] == removing_stamp_) refuse("a tet is named twice");
+    removing_[t] = removing_stamp_;
+    const int i = localIndex(tets_[t], v);
+    if (i < 0) refuse("tet " + std::to_string(t) + " does not hold vertex " + std::to_string(v));
+    TetVerts tv = tets_[t];
+    tv[i] = copy;
+    if (!(signedVolume(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]) > 0.0))
+      refuse("tet " + std::to_string(t) + " would have no positive rest volume");
+  }
+  restack(tets, v, copy, record);
+  std::vector<int> ids(tets.rbegin(), tets.rend());
+  return ids;
+}
+
+void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecord* record) {
+  // As replaceTets(star, renamed, record, &star) leaves it: the slots taken back in reverse
+  // order (the free list is a stack), so the tet of star[i] moves to slot star[n - 1 - i]; each
+  // vertex's list keeps its other tets in order and gets the star's new slots at its end;
+  // adjacency follows the slots, and a face through v to a tet outside the star opens when v is
+  // renamed (only the star's tets hold the copy).
+  const int n = static_cast<int>(star.size());
   // The star's slots marked in replaceTets' scratch (this call's stamp), with their places.
   nextStamp(&removing_, &removing_stamp_, tets_.size());
   std::vector<int>& place = move_place_;
@@ -510,24 +556,35 @@ void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, Change
       move_neighbors_[i][f] = inStar(w) ? slotOf(w) : w;
     }
   }
-  // Neighbours outside the star point at the new slots (their face found by its vertices).
+  // Neighbours outside the star point at the new slots (their face found by its vertices), or
+  // no longer meet it where the face holds a renamed v.
   for (int i = 0; i < n; ++i) {
     const TetVerts& tv = move_tets_[i];
     for (int f = 0; f < 4; ++f) {
       const int w = move_neighbors_[i][f];
       if (w < 0 || inStar(neighbors_[star[i]][f])) continue;
-      neighbors_[w][localFace(tets_[w], tv[kTetFace[f][0]], tv[kTetFace[f][1]],
-                              tv[kTetFace[f][2]])] = star[n - 1 - i];
+      const int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]];
+      const bool opens = copy != v && (a == v || b == v || c == v);
+      neighbors_[w][localFace(tets_[w], a, b, c)] = opens ? -1 : star[n - 1 - i];
+      if (opens) {
+        move_neighbors_[i][f] = -1;
+        num_boundary_faces_ += 2;
+      }
     }
   }
+  std::vector<int>& verts = move_vertices_;
+  verts.clear();
+  for (TetVerts& tv : move_tets_) {
+    verts.insert(verts.end(), tv.begin(), tv.end());
+    for (int& x : tv)
+      if (x == v) x = copy;
+  }
+  if (copy != v) verts.push_back(copy);
   for (int i = 0; i < n; ++i) {
     tets_[star[n - 1 - i]] = move_tets_[i];
     neighbors_[star[n - 1 - i]] = move_neighbors_[i];
   }
   // Each vertex of the star: its other tets in order, then the star's slots in the order taken.
-  std::vector<int>& verts = move_vertices_;
-  verts.clear();
-  for (const TetVerts& tv : move_tets_) verts.insert(verts.end(), tv.begin(), tv.end());
   std::sort(verts.begin(), verts.end());
   verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
   for (int w : verts) {
