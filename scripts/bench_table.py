@@ -15,6 +15,9 @@ prints the medians over --repeats runs of each:
                           cutter's time includes its search near the blade on every tick); and
                           the CPU time of all ticks of that run over #CuT
   4x ratio                us/cut tet of the 80k mesh over that of the 20k mesh
+  machine check           bench_core's implicit step of its 20k block on one thread and on two,
+                          before and after the replays (the machine's speed drifts, and its
+                          second vCPU is at times worth a quarter of a core)
 
 usage: scripts/bench_table.py [--build build] [--repeats 5] [--sizes 5000 20000 80000]
                               [--threads 1 2]
@@ -59,6 +62,40 @@ def replay(build, mesh, path, config, stats, physics):
         return json.load(f)
 
 
+def machine_check(build):
+    """One implicit step of bench_core's 20k block on one thread and on two [us], or None. The
+    machine's speed drifts, and its second vCPU is at times worth a quarter of a core: taken
+    before and after the replays, this says which machine the table was measured on."""
+    bench = os.path.join(build, 'devel/lib/tissue_cut/bench_core')
+    if not os.path.exists(bench):
+        return None
+    out = subprocess.run([bench, '--benchmark_filter=PhysicsStep/20000/', '--benchmark_min_time=0.3',
+                          '--benchmark_format=json'], check=True, capture_output=True, text=True)
+    times = {}
+    for b in json.loads(out.stdout)['benchmarks']:
+        times[int(b['name'].split('/')[2])] = b['real_time']
+    return times.get(1), times.get(2)
+
+
+def describe_check(when, check):
+    if check is None:
+        return 'machine check %s: bench_core not built' % when
+    one, two = check
+    return ('machine check %s: one implicit step of the 20k block %.0f us on one thread, %.0f on '
+            'two (%.2fx)' % (when, one, two, one / two))
+
+
+def cpu_model():
+    try:
+        with open('/proc/cpuinfo') as f:
+            for line in f:
+                if line.startswith('model name'):
+                    return line.split(':', 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
 def median(values):
     return statistics.median(values) if values else float('nan')
 
@@ -87,6 +124,7 @@ def main():
         with open(threaded[t], 'w') as f:
             f.write(CONFIG + '  threads: %d\n' % t)
     rows, physics_rows = [], []
+    check_before = machine_check(a.build)
     for n in a.sizes:
         prefix = os.path.join(out, 'organ%d' % n)
         if not os.path.exists(prefix + '.ele'):
@@ -131,9 +169,11 @@ def main():
             'cpu_per_cut': median([s['ticks']['cpu_total_ms'] * 1000.0 /
                                    max(1, s['cut']['cut_tetrahedra']) for s in plain]),
         })
+    check_after = machine_check(a.build)
     print('machine: %s, %d cores, %s; %d runs each, medians' %
-          (platform.processor() or platform.machine(), os.cpu_count(), platform.platform(),
-           a.repeats))
+          (cpu_model(), os.cpu_count(), platform.platform(), a.repeats))
+    print(describe_check('before', check_before))
+    print(describe_check('after', check_after))
     print('With physics and collapse:')
     print('| tets | springs | threads | cut tets | tick p50/p99/max ms (wall) | '
           'tick p50/p99/max ms (CPU) | RTF | physics ms/step | CG it/step | ns/spring/it |')
