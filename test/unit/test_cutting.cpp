@@ -484,6 +484,54 @@ TEST(Cutting, SweepBoundsCarriedAcrossTicksCutAsFreshOnesDo) {
   }
 }
 
+// separate() takes a vertex's groups as heldSplits() found them unless a split since changed a tet
+// of its star (renamed, its marks moved or opened). Kept or found afresh, the same vertices split
+// into the same groups: the same mesh to the slot, over a trembling stroke out and back in with
+// vertices waiting to split.
+TEST(Cutting, KeptGroupsSplitAsGroupsFoundAfresh) {
+  TremblingScalpel scalpel(11, 0.0003);
+  std::vector<BladeSegment> blades;  // its tremble is drawn as it goes: the same blades both ways
+  for (int k = 0; k <= 1000; ++k) blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
+  const MeshData block = makeBlock();
+  auto cut = [&](bool keep, TetMesh* mesh) {
+    CutterOptions options;
+    options.keep_groups = keep;
+    Cutter cutter(mesh, options);
+    for (const BladeSegment& blade : blades) {
+      ChangeRecord change;
+      cutter.step(blade, &change);
+      cutter.tissueMoved(0.0);
+    }
+    ChangeRecord change;
+    cutter.step(std::nullopt, &change);
+    EXPECT_EQ(cutter.validate(), "");
+    return cutter.counts();
+  };
+  TetMesh kept(block.V, block.T), afresh(block.V, block.T);
+  const CutCounts a = cut(true, &kept);
+  const CutCounts b = cut(false, &afresh);
+  EXPECT_GT(a.separated_vertices, 100);
+  EXPECT_GT(a.groups_kept, a.separation_tries / 5);  // kept for a good part of those tried
+  EXPECT_EQ(b.groups_kept, 0);
+  EXPECT_EQ(a.refused, 0);
+  EXPECT_EQ(a.separated_vertices, b.separated_vertices);
+  EXPECT_EQ(a.separation_tries, b.separation_tries);
+  ASSERT_EQ(kept.validate(), "");
+  ASSERT_EQ(kept.tetSlots(), afresh.tetSlots());
+  for (int t = 0; t < kept.tetSlots(); ++t) {
+    ASSERT_EQ(kept.tetAlive(t), afresh.tetAlive(t)) << "tet " << t;
+    if (kept.tetAlive(t)) {
+      ASSERT_EQ(kept.tet(t), afresh.tet(t)) << "tet " << t;
+    }
+  }
+  ASSERT_EQ(kept.vertexSlots(), afresh.vertexSlots());
+  for (int v = 0; v < kept.vertexSlots(); ++v) {
+    if (kept.vertexAlive(v)) {
+      ASSERT_EQ(kept.vertexTets(v), afresh.vertexTets(v)) << "vertex " << v;
+    }
+  }
+}
+
 // A blade trembling hard inside its own wound leaves hundreds of vertices waiting to split (the
 // cut around them stays incomplete: sheets meeting at a crack front). They are tried again only
 // near what changed since the last try, not all of them on every tick that changes anything

@@ -38,6 +38,10 @@ struct CutterOptions {
   /// it within this fraction of the mean edge: a blade coming back along a wound that the tissue
   /// has moved since follows the wound instead of cutting slivers off its wall.
   double wound_snap = 0.35;
+  /// separate() takes a vertex's groups as heldSplits() found them while no split since has
+  /// changed its star or marks (the same answer, less work); false finds every vertex's groups
+  /// afresh (for comparison).
+  bool keep_groups = true;
 };
 
 /// The paper's counts and the cutter's own.
@@ -47,6 +51,7 @@ struct CutCounts {
   double time_ms = 0.0;          ///< time in cutting (t.Repl)
   int separated_vertices = 0;    ///< vertex copies made to open the cut
   long long separation_tries = 0;  ///< vertices whose split was simulated, summed over the calls
+  long long groups_kept = 0;  ///< of those tried, vertices whose groups separate() kept
   int lifts = 0;                 ///< jumps treated as the blade lifted
   int refused = 0;               ///< replacements TetMesh refused (the cut left closed there)
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
@@ -150,8 +155,14 @@ class Cutter {
   /// group_tets_[group_start_[k] .. group_start_[k + 1]) (until the next call).
   int groupsAround(int v) const;
   /// Of `verts`, those whose split must wait (sorted): splitting all the others, as separate()
-  /// does, keeps the boundary a 2-manifold.
+  /// does, keeps the boundary a 2-manifold. Keeps each vertex's groups for groupsKept().
   std::vector<int> heldSplits(const std::vector<int>& verts);
+  /// groupsAround(v) for verts[place] of the last heldSplits(verts): its kept answer while no split
+  /// since has changed a tet of v's star or a mark on one (see keptStale()), else afresh.
+  int groupsKept(int v, int place);
+  /// The groups kept for these tets' vertices no longer hold: a split renames the tets (new
+  /// slots, v in place of its copy) and moves or opens the marks on their faces.
+  void keptStale(const std::vector<int>& tets);
   int addSteiner(const Pending& p, ChangeRecord* change);
   void dropUnusedSteiner(int* steiner, ChangeRecord* change);
   void setPieces(int pid, const std::vector<int>& pieces);
@@ -292,6 +303,13 @@ class Cutter {
     std::int64_t copy, prev, next;  // around the copy of the vertex, the boundary runs prev -> next
   };
   std::vector<FanEdge> held_fan_;
+  // groupsAround()'s answers for heldSplits()' vertices, kept for separate(): for verts[i],
+  // kept_groups_[i] is its first group's place in kept_start_ (-1: none kept) and kept_count_[i]
+  // how many; group k of it is kept_tets_[kept_start_[g + k] .. kept_start_[g + k + 1]). A vertex
+  // slot's kept_stale_ is kept_call_ once a split has changed its star or marks since.
+  std::vector<int> kept_groups_, kept_count_, kept_start_, kept_tets_;
+  std::vector<unsigned> kept_stale_;
+  unsigned kept_call_ = 0;
   std::vector<int> final_ids_, final_touched_;         // finalizeLeft()'s lists, kept likewise
   std::vector<int> separate_before_, separate_after_;  // separate()'s waiting lists, likewise
   std::vector<unsigned> region_stamp_, check_stamp_;

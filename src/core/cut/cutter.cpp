@@ -67,7 +67,8 @@ void Cutter::sizeScratch() {
   growSlots(&split_state_, verts, {});
   growSlots(&marked_at_, verts, 0);
   growSlots(&wound_flag_, verts, {});
-  for (auto* stamps : {&check_stamp_, &ring_stamp_, &wait_stamp_, &axis_stamp_, &vertex_seen_})
+  for (auto* stamps :
+       {&check_stamp_, &ring_stamp_, &wait_stamp_, &axis_stamp_, &vertex_seen_, &kept_stale_})
     growSlots(stamps, verts, 0u);
   growSlots(&axis_slot_, verts, 0);
 }
@@ -761,9 +762,21 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   std::vector<int>& stars = held_stars_;
   splitting.clear();
   stars.clear();
-  for (int v : verts) {
+  nextStamp(&kept_stale_, &kept_call_, mesh_->vertexSlots());
+  kept_groups_.assign(verts.size(), -1);
+  kept_count_.assign(verts.size(), 0);
+  kept_start_.clear();
+  kept_tets_.clear();
+  for (std::size_t place = 0; place < verts.size(); ++place) {
+    const int v = verts[place];
     if (!mesh_->vertexAlive(v)) continue;
     const int groups = groupsAround(v);
+    kept_groups_[place] = static_cast<int>(kept_start_.size());
+    kept_count_[place] = groups;
+    for (int k = 0; k <= groups; ++k)
+      kept_start_.push_back(static_cast<int>(kept_tets_.size()) + group_start_[k]);
+    kept_tets_.insert(kept_tets_.end(), group_tets_.begin(),
+                      group_tets_.begin() + group_start_[groups]);
     if (groups < 2) continue;
     splitting.push_back(v);
     split_state_[v] = kSplits;
@@ -901,6 +914,25 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
   return done(false);
 }
 
+int Cutter::groupsKept(int v, int place) {
+  const int first = place < static_cast<int>(kept_groups_.size()) ? kept_groups_[place] : -1;
+  if (!options_.keep_groups || first < 0 || kept_stale_[v] == kept_call_) return groupsAround(v);
+  ++counts_.groups_kept;
+  // What groupsAround(v) would answer now: it depends on v's star and the marks on its faces only.
+  const int groups = kept_count_[place];
+  const int base = kept_start_[first];
+  group_start_.resize(groups + 1);
+  for (int k = 0; k <= groups; ++k) group_start_[k] = kept_start_[first + k] - base;
+  group_tets_.assign(kept_tets_.begin() + base, kept_tets_.begin() + kept_start_[first + groups]);
+  return groups;
+}
+
+void Cutter::keptStale(const std::vector<int>& tets) {
+  growSlots(&kept_stale_, mesh_->vertexSlots(), 0u);
+  for (int t : tets)
+    for (int x : mesh_->tet(t)) kept_stale_[x] = kept_call_;
+}
+
 void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeRecord* change) {
   // Whether a vertex can split depends on its star and marks (its groups), on the faces it and its
   // neighbours would open (their vertices are in its first ring) and on the boundary fans around
@@ -972,14 +1004,15 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
   std::vector<int>& after = separate_after_;  // the vertices tried that wait now, in order
   after.clear();
   bool reclosed = false;  // a refused split closed faces for good: groups may have merged
-  for (int v : touched) {
+  for (std::size_t place = 0; place < touched.size(); ++place) {
+    const int v = touched[place];
     if (!mesh_->vertexAlive(v)) continue;
     const bool waits = std::binary_search(held.begin(), held.end(), v);
     if (waits && !reclosed) {
       after.push_back(v);  // held with two groups or more; splits before it did not change them
       continue;
     }
-    if (groupsAround(v) < 2) continue;
+    if (groupsKept(v, static_cast<int>(place)) < 2) continue;
     if (waits) {
       after.push_back(v);
       continue;
@@ -997,6 +1030,7 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
     for (std::size_t k = 0; k < groups.size(); ++k) {
       if (k == keep) continue;
       const std::vector<int>& tets = groups[k];
+      keptStale(tets);  // renamed below, or their marks opened for good
       ChangeRecord local;
       const int copy = mesh_->addVertex({{v, 1.0}}, &local);
       std::set<int> in_group(tets.begin(), tets.end());
