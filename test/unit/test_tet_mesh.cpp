@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <random>
 #include <set>
+#include <string>
 
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -35,6 +36,36 @@ int bisectEdge(TetMesh& mesh, int a, int b, ChangeRecord* record) {
   }
   mesh.replaceTets(star, add, record);
   return m;
+}
+
+// The built-in block after bisecting six edges drawn by rng: slots freed and reused, as cuts
+// leave them.
+TetMesh bisectedBlock(std::mt19937* rng) {
+  const MeshData b = makeBlock();
+  TetMesh mesh(b.V, b.T);
+  for (int k = 0; k < 6; ++k) {
+    const auto edges = mesh.edges();
+    const auto [a, c] = edges[(*rng)() % edges.size()];
+    bisectEdge(mesh, a, c, nullptr);
+  }
+  return mesh;
+}
+
+// Every slot, tet, adjacency, star order and the boundary count agree (ASSERTs: the first
+// difference stops the test, named with `what`).
+void expectSameMesh(const TetMesh& a, const TetMesh& b, const std::string& what) {
+  ASSERT_EQ(a.tetSlots(), b.tetSlots()) << what;
+  for (int t = 0; t < a.tetSlots(); ++t) {
+    ASSERT_EQ(a.tetAlive(t), b.tetAlive(t)) << what << ", tet " << t;
+    if (!a.tetAlive(t)) continue;
+    ASSERT_EQ(a.tet(t), b.tet(t)) << what << ", tet " << t;
+    for (int f = 0; f < 4; ++f)
+      ASSERT_EQ(a.neighbor(t, f), b.neighbor(t, f)) << what << ", tet " << t;
+  }
+  ASSERT_EQ(a.vertexSlots(), b.vertexSlots()) << what;
+  for (int u = 0; u < a.vertexSlots(); ++u)
+    ASSERT_EQ(a.vertexTets(u), b.vertexTets(u)) << what << ", vertex " << u;
+  ASSERT_EQ(a.numBoundaryFaces(), b.numBoundaryFaces()) << what;
 }
 
 }  // namespace
@@ -231,14 +262,8 @@ TEST(TetMesh, AppendedRecordsGiveTheNetChange) {
 // block: one moved, the other replaced. A move that would flatten a tet is refused with the
 // mesh unchanged.
 TEST(TetMesh, MovingAVertexEqualsReplacingItsStarByTheSameTets) {
-  const MeshData b = makeBlock();
-  TetMesh moved(b.V, b.T);
   std::mt19937 rng(3);
-  for (int k = 0; k < 6; ++k) {  // free slots in the list, as cuts leave them
-    const auto edges = moved.edges();
-    const auto [a, c] = edges[rng() % edges.size()];
-    bisectEdge(moved, a, c, nullptr);
-  }
+  TetMesh moved = bisectedBlock(&rng);
   TetMesh replaced = moved;
   for (int k = 0; k < 40; ++k) {
     const int v = static_cast<int>(rng() % moved.vertexSlots());
@@ -252,16 +277,8 @@ TEST(TetMesh, MovingAVertexEqualsReplacingItsStarByTheSameTets) {
     EXPECT_EQ(by_move.removed_tets, by_replace.removed_tets) << "vertex " << v;
     EXPECT_EQ(by_move.added_tets, by_replace.added_tets) << "vertex " << v;
     EXPECT_EQ(by_move.added_from, by_replace.added_from) << "vertex " << v;
-    ASSERT_EQ(moved.tetSlots(), replaced.tetSlots());
-    for (int t = 0; t < moved.tetSlots(); ++t) {
-      ASSERT_EQ(moved.tetAlive(t), replaced.tetAlive(t)) << "vertex " << v << ", tet " << t;
-      if (!moved.tetAlive(t)) continue;
-      ASSERT_EQ(moved.tet(t), replaced.tet(t)) << "vertex " << v << ", tet " << t;
-      for (int f = 0; f < 4; ++f)
-        ASSERT_EQ(moved.neighbor(t, f), replaced.neighbor(t, f)) << "vertex " << v << ", tet " << t;
-    }
-    for (int u = 0; u < moved.vertexSlots(); ++u)
-      ASSERT_EQ(moved.vertexTets(u), replaced.vertexTets(u)) << "vertex " << v << ", its " << u;
+    expectSameMesh(moved, replaced, "moving vertex " + std::to_string(v));
+    if (HasFatalFailure()) return;
   }
   EXPECT_EQ(moved.validate(), "");
   EXPECT_EQ(moved.numBoundaryFaces(), replaced.numBoundaryFaces());
@@ -277,39 +294,12 @@ TEST(TetMesh, MovingAVertexEqualsReplacingItsStarByTheSameTets) {
   EXPECT_EQ(moved.validate(), "");
 }
 
-namespace {
-
-// Every slot, tet, adjacency, star order and the boundary count agree (ASSERTs: the first
-// difference stops the test, named with `what`).
-void expectSameMesh(const TetMesh& a, const TetMesh& b, const std::string& what) {
-  ASSERT_EQ(a.tetSlots(), b.tetSlots()) << what;
-  for (int t = 0; t < a.tetSlots(); ++t) {
-    ASSERT_EQ(a.tetAlive(t), b.tetAlive(t)) << what << ", tet " << t;
-    if (!a.tetAlive(t)) continue;
-    ASSERT_EQ(a.tet(t), b.tet(t)) << what << ", tet " << t;
-    for (int f = 0; f < 4; ++f)
-      ASSERT_EQ(a.neighbor(t, f), b.neighbor(t, f)) << what << ", tet " << t;
-  }
-  ASSERT_EQ(a.vertexSlots(), b.vertexSlots()) << what;
-  for (int u = 0; u < a.vertexSlots(); ++u)
-    ASSERT_EQ(a.vertexTets(u), b.vertexTets(u)) << what << ", vertex " << u;
-  ASSERT_EQ(a.numBoundaryFaces(), b.numBoundaryFaces()) << what;
-}
-
-}  // namespace
-
 // A cut opens a vertex by giving a group of its tets a copy of it; renameVertex must leave the
 // mesh and the record exactly as replacing the group by its renamed tets does (slots, adjacency,
 // the order of every star: later choices depend on them).
 TEST(TetMesh, RenamingAVertexEqualsReplacingItsTetsByTheRenamedTets) {
-  const MeshData b = makeBlock();
-  TetMesh renamed(b.V, b.T);
   std::mt19937 rng(5);
-  for (int k = 0; k < 6; ++k) {  // free slots in the list, as cuts leave them
-    const auto edges = renamed.edges();
-    const auto [a, c] = edges[rng() % edges.size()];
-    bisectEdge(renamed, a, c, nullptr);
-  }
+  TetMesh renamed = bisectedBlock(&rng);
   TetMesh replaced = renamed;
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   int splits = 0, opened = 0;
