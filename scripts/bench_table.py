@@ -69,8 +69,9 @@ def machine_check(build):
     bench = os.path.join(build, 'devel/lib/tissue_cut/bench_core')
     if not os.path.exists(bench):
         return None
-    out = subprocess.run([bench, '--benchmark_filter=PhysicsStep/20000/', '--benchmark_min_time=0.3',
-                          '--benchmark_format=json'], check=True, capture_output=True, text=True)
+    out = subprocess.run([bench, '--benchmark_filter=PhysicsStep/20000/',
+                          '--benchmark_min_time=0.3', '--benchmark_format=json'],
+                         check=True, capture_output=True, text=True)
     times = {}
     for b in json.loads(out.stdout)['benchmarks']:
         times[int(b['name'].split('/')[2])] = b['real_time']

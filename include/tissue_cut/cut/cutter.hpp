@@ -51,7 +51,7 @@ struct CutCounts {
   double time_ms = 0.0;          ///< time in cutting (t.Repl)
   int separated_vertices = 0;    ///< vertex copies made to open the cut
   long long separation_tries = 0;  ///< vertices whose split was simulated, summed over the calls
-  long long groups_kept = 0;  ///< of those tried, vertices whose groups separate() kept
+  long long groups_kept = 0;       ///< of those tried, vertices whose groups separate() kept
   int lifts = 0;                 ///< jumps treated as the blade lifted
   int refused = 0;               ///< replacements TetMesh refused (the cut left closed there)
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
@@ -304,9 +304,10 @@ class Cutter {
   };
   std::vector<FanEdge> held_fan_;
   // groupsAround()'s answers for heldSplits()' vertices, kept for separate(): for verts[i],
-  // kept_groups_[i] is its first group's place in kept_start_ (-1: none kept) and kept_count_[i]
-  // how many; group k of it is kept_tets_[kept_start_[g + k] .. kept_start_[g + k + 1]). A vertex
-  // slot's kept_stale_ is kept_call_ once a split has changed its star or marks since.
+  // g = kept_groups_[i] is its first group's place in kept_start_ (-1: none kept) and
+  // kept_count_[i] how many; group k of it is kept_tets_[kept_start_[g + k] ..
+  // kept_start_[g + k + 1]). A vertex slot's kept_stale_ is kept_call_ once a split has changed
+  // its star or marks since.
   std::vector<int> kept_groups_, kept_count_, kept_start_, kept_tets_;
   std::vector<unsigned> kept_stale_;
   unsigned kept_call_ = 0;
