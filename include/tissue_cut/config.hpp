@@ -45,8 +45,8 @@ struct Config {
     /// physics step, starts only with 100 us left before the deadline and stops there or at its
     /// budget, whichever comes first: collapses wait for ticks with time to spare. Where the
     /// physics step (the 75th percentile of its last 128) leaves no 100 us, the queue gets 100 us
-    /// of budget a tick; where it takes the whole period, its budget. 0: the budget alone, before
-    /// the physics step, as also while budget_us is 0 (unbounded).
+    /// of budget every fourth such tick; where it takes the whole period, its budget every tick.
+    /// 0: the budget alone, before the physics step, as also while budget_us is 0 (unbounded).
     double deadline = 0.9;
   } collapse;
 

@@ -103,6 +103,10 @@ class Tissue {
   std::array<double, kRecentSteps> recent_physics_us_{};
   long long physics_steps_ = 0;
   double physics_slow_us_ = 0.0;
+  // Ticks since the queue last worked, counted while the physics alone leaves it no chunk
+  // before the deadline: it gets one every kStarvedEvery-th of them.
+  static constexpr int kStarvedEvery = 4;
+  int starved_ticks_ = 0;
   // The last collapse batches' cost to follow [us per tet changed] (a ring), and its
   // kSlowPercent-th percentile: the queue keeps that time for it under a deadline.
   static constexpr std::size_t kRecentFollows = 32;

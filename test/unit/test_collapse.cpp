@@ -31,8 +31,10 @@ ScalpelPath line(const Vec3& a, const Vec3& b, double seconds) {
                       ToolPose{seconds, b, Eigen::Quaterniond::Identity()}});
 }
 
-// Replays at 1 kHz, validating every tick, then lifts the blade and runs `settle_ticks` more.
-std::string replay(Tissue& tissue, const ScalpelPath& path, int settle_ticks = 0) {
+// Replays at 1 kHz, validating every tick, then lifts the blade and runs `settle_ticks` more;
+// `after_tick` (if given) looks at the tissue after each tick.
+std::string replay(Tissue& tissue, const ScalpelPath& path, int settle_ticks = 0,
+                   const std::function<void()>& after_tick = nullptr) {
   const int ticks = static_cast<int>(std::ceil(path.endTime() / 1e-3));
   for (int k = 0; k <= ticks + 1 + settle_ticks; ++k) {
     std::optional<BladeSegment> blade;
@@ -43,6 +45,7 @@ std::string replay(Tissue& tissue, const ScalpelPath& path, int settle_ticks = 0
     tissue.step(blade, 1e-3);
     const std::string err = tissue.validate();
     if (!err.empty()) return "tick " + std::to_string(k) + ": " + err;
+    if (after_tick) after_tick();
   }
   return "";
 }
@@ -277,8 +280,10 @@ namespace {
 // The block cut straight through with physics on (no gravity: it stays where it is) and the
 // default budget, the tissue's clock advancing `step_us` a reading: a tick reads it at its start,
 // around the physics step (which so takes step_us) and at the deadline's check after it (3 x
-// step_us into the tick), and the queue's work is measured on it too.
-Statistics cutOnAClock(double deadline, double step_us) {
+// step_us into the tick), and the queue's work is measured on it too. `ticks` (if given) gets a
+// letter a tick: 'w' the queue worked (its time grew), 'd' it was deferred with tets queued, '-'
+// neither.
+Statistics cutOnAClock(double deadline, double step_us, std::string* ticks = nullptr) {
   Config c = withCollapse(true, 0.06, 300.0);
   c.physics.enabled = true;
   c.physics.gravity = Vec3::Zero();
@@ -286,7 +291,17 @@ Statistics cutOnAClock(double deadline, double step_us) {
   Tissue tissue(c, makeBlock());
   double clock = 0.0;
   tissue.setClock([&] { return clock += step_us; });
-  EXPECT_EQ(replay(tissue, line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3)), "");
+  Statistics last = tissue.statistics();
+  auto look = [&] {
+    const Statistics now = tissue.statistics();
+    if (ticks)
+      *ticks += now.collapse.time_ms > last.collapse.time_ms                  ? 'w'
+                : now.collapse.deferred_ticks > last.collapse.deferred_ticks ? 'd'
+                                                                             : '-';
+    last = now;
+  };
+  EXPECT_EQ(replay(tissue, line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3), 0, look),
+            "");
   return tissue.statistics();
 }
 
@@ -298,8 +313,9 @@ int work(const Statistics& s) {
 
 // collapse/deadline: the queue works after the physics step, only while the tick is within its
 // deadline (0.9 of the 1 ms period), and starts only with 100 us left; where the physics alone
-// (the 75th percentile of its last steps) leaves no 100 us, it gets 100 us of budget a tick, and
-// where the physics alone takes the period, its whole budget.
+// (the 75th percentile of its last steps) leaves no 100 us, it gets 100 us of budget every
+// fourth tick (the three between stay on time), and where the physics alone takes the period,
+// its whole budget every tick.
 TEST(Collapse, TheTicksDeadlineLeavesTheQueueOnlyTheTimeTheTickHasLeft) {
   // 400 us a reading: the check comes 1.2 ms into the tick, past its deadline: no work, every
   // tick with tets queued counted as deferred.
@@ -309,22 +325,43 @@ TEST(Collapse, TheTicksDeadlineLeavesTheQueueOnlyTheTimeTheTickHasLeft) {
   EXPECT_GT(late.collapse.deferred_ticks, 100);
   std::printf("deadline passed: work (collapses, flips, moves) %d\n", work(late));
   // The queue works, deferring no tick: without a deadline (the budget alone, one tet a tick,
-  // the budget's first), where a physics step of 0.85 ms leaves no 100 us (a chunk of budget a
-  // tick), where one of 1.1 ms takes the period (no tick keeps pace: the budget alone), and with
-  // time to spare (50 us a reading: 0.75 ms left at the check, more than the budget).
+  // the budget's first), where a physics step of 1.1 ms takes the period (no tick keeps pace:
+  // the budget alone), and with time to spare (50 us a reading: 0.75 ms left at the check, more
+  // than the budget).
   const struct {
     double deadline, step_us;
     const char* what;
   } working[] = {{0.0, 400.0, "no deadline"},
-                 {0.9, 850.0, "physics leaving no chunk"},
                  {0.9, 1100.0, "physics over the period"},
                  {0.9, 50.0, "time to spare"}};
   for (const auto& c : working) {
-    const Statistics s = cutOnAClock(c.deadline, c.step_us);
+    std::string ticks;
+    const Statistics s = cutOnAClock(c.deadline, c.step_us, &ticks);
     EXPECT_GT(s.collapse.collapsed_edges, 10) << c.what;
     EXPECT_EQ(s.collapse.deferred_ticks, 0) << c.what;
+    EXPECT_EQ(ticks.find('d'), std::string::npos) << c.what;
     std::printf("%s: work %d\n", c.what, work(s));
   }
+  // A physics step of 0.85 ms leaves no 100 us: the queue gets a chunk of budget every fourth
+  // tick, and it still works; three ticks in four stay within the deadline.
+  std::string ticks;
+  const Statistics s = cutOnAClock(0.9, 850.0, &ticks);
+  EXPECT_GT(s.collapse.collapsed_edges, 10);
+  const std::size_t first = ticks.find('w'), last = ticks.rfind('w');
+  ASSERT_NE(first, std::string::npos);
+  const std::string worked = ticks.substr(first, last + 1 - first);
+  EXPECT_EQ(worked.find("ww"), std::string::npos) << ticks;  // never two ticks running
+  EXPECT_EQ(worked.find("dddd"), std::string::npos) << ticks;  // never four deferred
+  int works = 0;
+  for (std::size_t i = 0; i < worked.size(); ++i)
+    if (worked[i] == 'w') {
+      EXPECT_EQ(i % 4, 0u) << ticks;  // every fourth tick, whether tets wait or not
+      ++works;
+    }
+  EXPECT_GT(works, 10);
+  EXPECT_GT(s.collapse.deferred_ticks, 2 * works);
+  std::printf("physics leaving no chunk: work %d, ticks the queue worked %d, deferred %d\n",
+              work(s), works, s.collapse.deferred_ticks);
 }
 
 TEST(Collapse, SoundTetIsVolumeOverTheLongestEdgeCubedAtEveryScale) {
