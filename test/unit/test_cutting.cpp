@@ -532,6 +532,66 @@ TEST(Cutting, KeptGroupsSplitAsGroupsFoundAfresh) {
   }
 }
 
+// A pending tet the blade leaves on the tick it takes a new point gets its final split straight
+// away, without first being subdivided anew with the point as the tets the blade is still in are
+// (a subdivision the final split would replace at once). Over a trembling stroke out and back,
+// the mesh is the same tet for tet (only the slots differ) with fewer subdivisions.
+TEST(Cutting, TetsLeftAsTheyTakeAPointAreSplitWithoutSubdividingFirst) {
+  TremblingScalpel scalpel(11, 0.0003);
+  std::vector<BladeSegment> blades;
+  for (int k = 0; k <= 1000; ++k) blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
+  const MeshData block = makeBlock();
+  auto cut = [&](bool subdivide_left, TetMesh* mesh) {
+    CutterOptions options;
+    options.subdivide_left = subdivide_left;
+    Cutter cutter(mesh, options);
+    for (std::size_t k = 0; k < blades.size(); ++k) {
+      ChangeRecord change;
+      cutter.step(blades[k], &change);
+      cutter.tissueMoved(0.0);
+      if (k % 10 == 0) {
+        EXPECT_EQ(mesh->validate(), "") << "tick " << k;
+      }
+      if (HasFailure()) break;
+    }
+    ChangeRecord change;
+    cutter.step(std::nullopt, &change);
+    EXPECT_EQ(cutter.validate(), "");
+    return cutter.counts();
+  };
+  // Each live tet as its four corners' rest positions, sorted; all of them sorted.
+  auto shapes = [](const TetMesh& mesh) {
+    std::vector<std::array<std::array<double, 3>, 4>> out;
+    for (int t = 0; t < mesh.tetSlots(); ++t) {
+      if (!mesh.tetAlive(t)) continue;
+      std::array<std::array<double, 3>, 4> corners;
+      for (int k = 0; k < 4; ++k) {
+        const Vec3& x = mesh.rest(mesh.tet(t)[k]);
+        corners[k] = {x.x(), x.y(), x.z()};
+      }
+      std::sort(corners.begin(), corners.end());
+      out.push_back(corners);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  TetMesh straight(block.V, block.T), first(block.V, block.T);
+  const CutCounts a = cut(false, &straight);
+  const CutCounts b = cut(true, &first);
+  std::printf("subdivisions %lld straight to the final split, %lld subdividing first\n",
+              a.subdivisions, b.subdivisions);
+  EXPECT_GT(a.cut_tetrahedra, 100);
+  EXPECT_LT(a.subdivisions, b.subdivisions);
+  EXPECT_EQ(a.refused, 0);
+  EXPECT_EQ(a.cut_tetrahedra, b.cut_tetrahedra);
+  EXPECT_EQ(a.created_tetrahedra, b.created_tetrahedra);
+  EXPECT_EQ(a.separated_vertices, b.separated_vertices);
+  EXPECT_EQ(a.by_kind, b.by_kind);
+  EXPECT_EQ(straight.numTets(), first.numTets());
+  EXPECT_EQ(straight.numVertices(), first.numVertices());
+  EXPECT_TRUE(shapes(straight) == shapes(first));
+}
+
 // A blade trembling hard inside its own wound leaves hundreds of vertices waiting to split (the
 // cut around them stays incomplete: sheets meeting at a crack front). They are tried again only
 // near what changed since the last try, not all of them on every tick that changes anything

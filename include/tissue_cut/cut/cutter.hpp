@@ -42,6 +42,10 @@ struct CutterOptions {
   /// changed its star or marks (the same answer, less work); false finds every vertex's groups
   /// afresh (for comparison).
   bool keep_groups = true;
+  /// A pending tet the blade leaves on the tick it takes a new point gets its final split
+  /// straight away; true first subdivides it anew with the point, as the tets the blade is still
+  /// in are (the same mesh, more work: for comparison).
+  bool subdivide_left = false;
 };
 
 /// The paper's counts and the cutter's own.
@@ -52,6 +56,7 @@ struct CutCounts {
   int separated_vertices = 0;    ///< vertex copies made to open the cut
   long long separation_tries = 0;  ///< vertices whose split was simulated, summed over the calls
   long long groups_kept = 0;       ///< of those tried, vertices whose groups separate() kept
+  long long subdivisions = 0;      ///< pending tets subdivided anew after taking points
   int lifts = 0;                 ///< jumps treated as the blade lifted
   int refused = 0;               ///< replacements TetMesh refused (the cut left closed there)
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
@@ -312,6 +317,7 @@ class Cutter {
   std::vector<unsigned> kept_stale_;
   unsigned kept_call_ = 0;
   std::vector<int> final_ids_, final_touched_;         // finalizeLeft()'s lists, kept likewise
+  std::vector<int> left_;                              // finalizeLeft(): the tets the blade left
   std::vector<int> separate_before_, separate_after_;  // separate()'s waiting lists, likewise
   std::vector<unsigned> region_stamp_, check_stamp_;
   unsigned region_call_ = 0, check_call_ = 0;

@@ -591,6 +591,7 @@ void Cutter::setPieces(int pid, const std::vector<int>& pieces) {
 void Cutter::subdivide(int pid, ChangeRecord* change) {
   Pending& p = pending_[pid];
   p.dirty = false;
+  ++counts_.subdivisions;
   auto rest = [this](int v) { return mesh_->rest(v); };
   auto cur = [this](int v) { return mesh_->current(v); };
   TetSplit split = subdivideTet(p.cut, rest, cur, p.steiner);
@@ -624,12 +625,21 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
     if (p.steiner < 0) p.steiner = addSteiner(p, change);
     split = splitTet(p.cut, rest, cur, p.steiner);
   }
+  // A tet whose pieces predate its last points (finalizeLeft() did not subdivide it again) gets
+  // pieces that conform to every point wherever they stay in the mesh: kept as they are, or kept
+  // because the replacement is refused.
+  auto conformingPieces = [&] {
+    if (!pending_[pid].dirty) return;
+    subdivide(pid, change);
+    p.pieces = pending_[pid].pieces;
+  };
   if (split.kind != SplitKind::kUntouched && split.kind != SplitKind::kAlongFace) {
     std::vector<int> ids;
     const std::vector<int> from(split.tets.size(), -1);
     if (!replace(p.pieces, split.tets, change, &from, &ids)) {
       // Refused: the tet keeps its temporary pieces (they fill it and conform to every point),
       // and the cut stays closed inside it.
+      conformingPieces();
       for (int t : p.pieces) pending_of_[t] = -1;
       dropUnusedSteiner(&p.steiner, change);
       pending_.erase(pid);
@@ -641,6 +651,7 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
     counts_.created_tetrahedra += static_cast<int>(ids.size());
     for (const TetVerts& t : split.tets) touched->insert(touched->end(), t.begin(), t.end());
   } else {
+    conformingPieces();
     for (int t : p.pieces) pending_of_[t] = -1;
   }
   ++counts_.by_kind[static_cast<int>(split.kind)];
@@ -660,23 +671,26 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
 
 void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord* change,
                           bool stroke_end) {
+  // The tets the blade has left are replaced now; the others that took new points are
+  // subdivided anew to stand in the mesh until then. A tet left on the tick it took a point is
+  // not subdivided first (its final split replaces whatever pieces it has; see finalize()).
   std::vector<int>& ids = final_ids_;
   ids.clear();
+  left_.clear();
   for (auto& [pid, p] : pending_) {
-    if (p.dirty) subdivide(pid, change);
-    ids.push_back(pid);
+    const TetVerts& c = p.cut.corner;
+    const bool left =
+        !blade ||
+        !segmentMeetsTet(blade->base, blade->tip, mesh_->current(c[0]), mesh_->current(c[1]),
+                         mesh_->current(c[2]), mesh_->current(c[3]), 1e-3 * mean_edge_);
+    if (left) left_.push_back(pid);
+    if (p.dirty && (!left || options_.subdivide_left)) ids.push_back(pid);  // in the map's order
   }
-  std::sort(ids.begin(), ids.end());
+  for (int pid : ids) subdivide(pid, change);
+  std::sort(left_.begin(), left_.end());
   std::vector<int>& touched = final_touched_;
   touched.clear();
-  for (int pid : ids) {
-    const TetVerts& c = pending_[pid].cut.corner;
-    if (blade &&
-        segmentMeetsTet(blade->base, blade->tip, mesh_->current(c[0]), mesh_->current(c[1]),
-                        mesh_->current(c[2]), mesh_->current(c[3]), 1e-3 * mean_edge_))
-      continue;
-    finalize(pid, change, &touched);
-  }
+  for (int pid : left_) finalize(pid, change, &touched);
   // Vertices waiting to split are tried again only when the mesh or the marks changed since the
   // last try (the separation depends on nothing else, so a retry would only defer them again),
   // and all of them once a stroke ends (see separate()).
