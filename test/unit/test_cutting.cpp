@@ -484,28 +484,50 @@ TEST(Cutting, SweepBoundsCarriedAcrossTicksCutAsFreshOnesDo) {
   }
 }
 
+namespace {
+
+// A scalpel trembling hard out and back in 1 s at 1 kHz. Its tremble is drawn as it goes: the
+// blades are taken once, so that every cut replaying them sees the same ones.
+std::vector<BladeSegment> outAndBack() {
+  TremblingScalpel scalpel(11, 0.0003);
+  std::vector<BladeSegment> blades;
+  for (int k = 0; k <= 1000; ++k) blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
+  return blades;
+}
+
+// Cuts `mesh` along `blades` with these options (the tissue told it does not move), then lifts
+// the blade; validates the mesh every `validate_every` ticks (0: only the cutter, at the end).
+CutCounts cutAlong(const std::vector<BladeSegment>& blades, const CutterOptions& options,
+                   TetMesh* mesh, int validate_every = 0) {
+  Cutter cutter(mesh, options);
+  for (std::size_t k = 0; k < blades.size(); ++k) {
+    ChangeRecord change;
+    cutter.step(blades[k], &change);
+    cutter.tissueMoved(0.0);
+    if (validate_every > 0 && k % validate_every == 0) {
+      EXPECT_EQ(mesh->validate(), "") << "tick " << k;
+      if (::testing::Test::HasFailure()) break;
+    }
+  }
+  ChangeRecord change;
+  cutter.step(std::nullopt, &change);
+  EXPECT_EQ(cutter.validate(), "");
+  return cutter.counts();
+}
+
+}  // namespace
+
 // separate() takes a vertex's groups as heldSplits() found them unless a split since changed a tet
 // of its star (renamed, its marks moved or opened). Kept or found afresh, the same vertices split
 // into the same groups: the same mesh to the slot, over a trembling stroke out and back in with
 // vertices waiting to split.
 TEST(Cutting, KeptGroupsSplitAsGroupsFoundAfresh) {
-  TremblingScalpel scalpel(11, 0.0003);
-  std::vector<BladeSegment> blades;  // its tremble is drawn as it goes: the same blades both ways
-  for (int k = 0; k <= 1000; ++k) blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
+  const std::vector<BladeSegment> blades = outAndBack();
   const MeshData block = makeBlock();
   auto cut = [&](bool keep, TetMesh* mesh) {
     CutterOptions options;
     options.keep_groups = keep;
-    Cutter cutter(mesh, options);
-    for (const BladeSegment& blade : blades) {
-      ChangeRecord change;
-      cutter.step(blade, &change);
-      cutter.tissueMoved(0.0);
-    }
-    ChangeRecord change;
-    cutter.step(std::nullopt, &change);
-    EXPECT_EQ(cutter.validate(), "");
-    return cutter.counts();
+    return cutAlong(blades, options, mesh);
   };
   TetMesh kept(block.V, block.T), afresh(block.V, block.T);
   const CutCounts a = cut(true, &kept);
@@ -537,27 +559,12 @@ TEST(Cutting, KeptGroupsSplitAsGroupsFoundAfresh) {
 // (a subdivision the final split would replace at once). Over a trembling stroke out and back,
 // the mesh is the same tet for tet (only the slots differ) with fewer subdivisions.
 TEST(Cutting, TetsLeftAsTheyTakeAPointAreSplitWithoutSubdividingFirst) {
-  TremblingScalpel scalpel(11, 0.0003);
-  std::vector<BladeSegment> blades;
-  for (int k = 0; k <= 1000; ++k) blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
+  const std::vector<BladeSegment> blades = outAndBack();
   const MeshData block = makeBlock();
   auto cut = [&](bool subdivide_left, TetMesh* mesh) {
     CutterOptions options;
     options.subdivide_left = subdivide_left;
-    Cutter cutter(mesh, options);
-    for (std::size_t k = 0; k < blades.size(); ++k) {
-      ChangeRecord change;
-      cutter.step(blades[k], &change);
-      cutter.tissueMoved(0.0);
-      if (k % 10 == 0) {
-        EXPECT_EQ(mesh->validate(), "") << "tick " << k;
-      }
-      if (HasFailure()) break;
-    }
-    ChangeRecord change;
-    cutter.step(std::nullopt, &change);
-    EXPECT_EQ(cutter.validate(), "");
-    return cutter.counts();
+    return cutAlong(blades, options, mesh, 10);
   };
   // Each live tet as its four corners' rest positions, sorted; all of them sorted.
   auto shapes = [](const TetMesh& mesh) {
