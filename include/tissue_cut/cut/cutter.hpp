@@ -316,8 +316,9 @@ class Cutter {
   std::vector<int> kept_groups_, kept_count_, kept_start_, kept_tets_;
   std::vector<unsigned> kept_stale_;
   unsigned kept_call_ = 0;
-  std::vector<int> final_ids_, final_touched_;         // finalizeLeft()'s lists, kept likewise
-  std::vector<int> left_;                              // finalizeLeft(): the tets the blade left
+  // finalizeLeft()'s lists, kept likewise: the pending tets to subdivide anew, the vertices the
+  // final splits touched, the pending tets the blade left.
+  std::vector<int> final_ids_, final_touched_, left_;
   std::vector<int> separate_before_, separate_after_;  // separate()'s waiting lists, likewise
   std::vector<unsigned> region_stamp_, check_stamp_;
   unsigned region_call_ = 0, check_call_ = 0;

@@ -674,8 +674,8 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
   // The tets the blade has left are replaced now; the others that took new points are
   // subdivided anew to stand in the mesh until then. A tet left on the tick it took a point is
   // not subdivided first (its final split replaces whatever pieces it has; see finalize()).
-  std::vector<int>& ids = final_ids_;
-  ids.clear();
+  std::vector<int>& resubdivide = final_ids_;
+  resubdivide.clear();
   left_.clear();
   for (auto& [pid, p] : pending_) {
     const TetVerts& c = p.cut.corner;
@@ -684,9 +684,9 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
         !segmentMeetsTet(blade->base, blade->tip, mesh_->current(c[0]), mesh_->current(c[1]),
                          mesh_->current(c[2]), mesh_->current(c[3]), 1e-3 * mean_edge_);
     if (left) left_.push_back(pid);
-    if (p.dirty && (!left || options_.subdivide_left)) ids.push_back(pid);  // in the map's order
+    if (p.dirty && (!left || options_.subdivide_left)) resubdivide.push_back(pid);  // map order
   }
-  for (int pid : ids) subdivide(pid, change);
+  for (int pid : resubdivide) subdivide(pid, change);
   std::sort(left_.begin(), left_.end());
   std::vector<int>& touched = final_touched_;
   touched.clear();
