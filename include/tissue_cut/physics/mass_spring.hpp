@@ -38,8 +38,12 @@ struct MassSpringParams {
   /// (see MassSpring::clusters()); false: each vertex's own 3x3 block only (block-Jacobi).
   bool cluster_preconditioner = true;
   /// CG's warm start: each vertex's velocity change extrapolated from the last steps' answers,
-  /// quadratically on the steps after one where that was the closer guess (false: linearly).
+  /// quadratically where that was the closer guess at the last step (false: linearly).
   bool quadratic_warm_start = true;
+  /// That choice made for each vertex: quadratic where it was clearly the closer for the vertex,
+  /// linear where that was, and where neither was, the one closer over the whole mesh (false:
+  /// the whole mesh's choice for every vertex, as until session 31; for comparison).
+  bool per_vertex_warm_start = true;
   /// Before CG, where a few vertices hold most of the first residual (the vertices whose springs
   /// a cut or a collapse just changed, and the steps after), the system is solved for those
   /// vertices alone (the rest held at the warm start) and CG starts from there: the same
@@ -244,7 +248,11 @@ class MassSpring {
   std::vector<Vec3> warm_;                        // last velocity change, per vertex
   std::vector<Vec3> warm_prev_;                   // the one before (warm start by extrapolation)
   std::vector<Vec3> warm_prev2_;                  // and the one before that
-  bool quadratic_next_ = false;  // the last step's quadratic extrapolation was the closer
+  // Per vertex, which extrapolation was the closer at the last step (see stepImplicit()).
+  static constexpr unsigned char kLinearCloser = 0, kQuadraticCloser = 1, kEitherCloser = 2;
+  static constexpr double kClearlyCloser2 = 4.0;  // a miss this much smaller, squared
+  std::vector<unsigned char> quadratic_at_;
+  bool quadratic_next_ = false;  // the quadratic misses summed over the mesh were the smaller
   /// Steps whose answers warm_, warm_prev_ and warm_prev2_ hold, up to 3 (0 after a roll-back):
   /// what the warm start may extrapolate from (see stepImplicit()).
   int warm_history_ = 0;
