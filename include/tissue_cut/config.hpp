@@ -67,6 +67,9 @@ struct Config {
     /// Solve where a cut or a collapse just changed the springs first, then CG on the whole
     /// mesh (see MassSpringParams::local_presolve).
     bool local_presolve = true;
+    /// The local solve takes in the neighbours of the vertices it picks (see
+    /// MassSpringParams::local_presolve_neighbours); false: those vertices alone.
+    bool local_presolve_neighbours = true;
     /// Warm start extrapolated quadratically where that guessed the last step closer (see
     /// MassSpringParams::quadratic_warm_start); false: always linearly.
     bool quadratic_warm_start = true;

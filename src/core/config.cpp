@@ -64,6 +64,10 @@ const std::map<std::string, Setter>& setters() {
        [](const YAML::Node& n, Config& c) { c.physics.cluster_preconditioner = n.as<bool>(); }},
       {"physics/local_presolve",
        [](const YAML::Node& n, Config& c) { c.physics.local_presolve = n.as<bool>(); }},
+      {"physics/local_presolve_neighbours",
+       [](const YAML::Node& n, Config& c) {
+         c.physics.local_presolve_neighbours = n.as<bool>();
+       }},
       {"physics/quadratic_warm_start",
        [](const YAML::Node& n, Config& c) { c.physics.quadratic_warm_start = n.as<bool>(); }},
   };

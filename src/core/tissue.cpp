@@ -59,6 +59,7 @@ MassSpringParams massSpringParams(const Config& config) {
   p.threads = config.physics.threads;
   p.cluster_preconditioner = config.physics.cluster_preconditioner;
   p.local_presolve = config.physics.local_presolve;
+  p.local_presolve_neighbours = config.physics.local_presolve_neighbours;
   p.quadratic_warm_start = config.physics.quadratic_warm_start;
   return p;
 }

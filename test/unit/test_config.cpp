@@ -47,6 +47,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.physics.threads = 7;
   other.physics.cluster_preconditioner = !d.physics.cluster_preconditioner;
   other.physics.local_presolve = !d.physics.local_presolve;
+  other.physics.local_presolve_neighbours = !d.physics.local_presolve_neighbours;
   other.physics.quadratic_warm_start = !d.physics.quadratic_warm_start;
   const Config f =
       loadConfigFile(std::string(TISSUE_CUT_SOURCE_DIR) + "/config/tissue.yaml", other);
@@ -75,8 +76,9 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.physics.threads, d.physics.threads);
   EXPECT_EQ(f.physics.cluster_preconditioner, d.physics.cluster_preconditioner);
   EXPECT_EQ(f.physics.local_presolve, d.physics.local_presolve);
+  EXPECT_EQ(f.physics.local_presolve_neighbours, d.physics.local_presolve_neighbours);
   EXPECT_EQ(f.physics.quadratic_warm_start, d.physics.quadratic_warm_start);
-  EXPECT_EQ(configKeys().size(), 26u) << "a key was added: extend this test and tissue.yaml";
+  EXPECT_EQ(configKeys().size(), 27u) << "a key was added: extend this test and tissue.yaml";
 }
 
 TEST(Config, PartialFileOverridesOnlyItsKeys) {
@@ -110,6 +112,7 @@ TEST(Config, AbsurdValuesAreNamed) {
       {"physics:\n  threads: 1.5\n", "physics/threads"},
       {"physics:\n  cluster_preconditioner: maybe\n", "physics/cluster_preconditioner"},
       {"physics:\n  local_presolve: 2\n", "physics/local_presolve"},
+      {"physics:\n  local_presolve_neighbours: 3\n", "physics/local_presolve_neighbours"},
       {"physics:\n  quadratic_warm_start: often\n", "physics/quadratic_warm_start"},
       {"mesh_order: random\n", "mesh_order"},
       {"rate: fast\n", "rate"},

@@ -49,6 +49,10 @@ struct MassSpringParams {
   /// vertices alone (the rest held at the warm start) and CG starts from there: the same
   /// tolerance, in fewer whole-mesh iterations (see MassSpring::presolveLocally()).
   bool local_presolve = true;
+  /// The local solve takes those vertices' neighbours as unknowns too (kMaxLocalRows in all):
+  /// solved for alone, the few vertices leave the rest of the residual around them (false: the
+  /// few alone, as until session 31).
+  bool local_presolve_neighbours = true;
   /// Threads the implicit step's loops run on (at most the machine's hardware threads). The
   /// result depends on the count (sums are split), never on timing.
   int threads = 1;
@@ -199,10 +203,13 @@ class MassSpring {
   // 5,000; the steps after: the same few, through the warm start's extrapolation): 1,000-10,000
   // times the tolerance against about 30 on other steps, i.e. 6-9 whole-mesh CG iterations
   // instead of 3-4. The vertices that hold the residual (up to kMaxLocal, together at least
-  // kLocalShare of it) are solved for alone by CG on their rows of A (block-Jacobi, the other
-  // vertices held at the warm start), and the residual kept exact (r = b - A dv) on them and on
-  // their neighbours: CG then starts from a better dv, and ends at the same tolerance.
+  // kLocalShare of it) and their neighbours (up to kMaxLocalRows rows in all, the neighbours of
+  // the vertices holding the most first) are solved for by CG on their rows of A (block-Jacobi,
+  // the other vertices held at the warm start), and the residual kept exact (r = b - A dv) on
+  // them and on their neighbours: CG then starts from a better dv, and ends at the same
+  // tolerance.
   static constexpr int kMaxLocal = 96;
+  static constexpr int kMaxLocalRows = 128;
   static constexpr double kLocalTrigger = 1e4;  // first residual over tolerance, squared
   static constexpr double kLocalPick = 1e-3;    // of the residual squared, a vertex's least
   static constexpr double kLocalShare = 0.5;    // of the residual squared, the picked ones' least
@@ -212,7 +219,7 @@ class MassSpring {
   /// changed there, and the sums with them.
   void presolveLocally(double tolerance2, double* rz, double* rr);
   struct LocalSpring {
-    int a, b;   // local indices: a among the picked vertices, b picked or a neighbour
+    int a, b;   // local indices: a among the rows solved for, b one of them or a neighbour
     int block;  // in blocks_
   };
   std::vector<std::pair<double, int>> local_pick_;

@@ -788,7 +788,25 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
     local_vertices_.push_back(v);
   };
   for (const auto& e : pick) place(e.second);
-  const int m = static_cast<int>(local_vertices_.size());  // the picked ones
+  // Solved for alone, they leave most of what remains of the residual on their neighbours (in
+  // the 20k organ's replay: 45 times the tolerance after the local solve at the median, against
+  // 12 with the neighbours; 108 steps of 5 CG iterations or more against 31). The neighbours of
+  // the vertices holding the most come first, up to kMaxLocalRows rows.
+  if (params_.local_presolve_neighbours) {
+    std::sort(pick.begin(), pick.end(), [](const auto& x, const auto& y) {
+      return x.first > y.first || (x.first == y.first && x.second < y.second);
+    });
+    for (const auto& e : pick) {
+      if (static_cast<int>(local_vertices_.size()) >= kMaxLocalRows) break;
+      forEachNeighbour(e.second, [&](int u) {
+        if (local_seen_[u] == local_stamp_ || held_[u] ||
+            static_cast<int>(local_vertices_.size()) >= kMaxLocalRows)
+          return;
+        place(u);
+      });
+    }
+  }
+  const int m = static_cast<int>(local_vertices_.size());  // the rows solved for
   local_springs_.clear();
   for (int i = 0; i < m; ++i) {
     const int v = local_vertices_[i];
