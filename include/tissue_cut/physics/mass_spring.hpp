@@ -203,13 +203,15 @@ class MassSpring {
   // 5,000; the steps after: the same few, through the warm start's extrapolation): 1,000-10,000
   // times the tolerance against about 30 on other steps, i.e. 6-9 whole-mesh CG iterations
   // instead of 3-4. The vertices that hold the residual (up to kMaxLocal, together at least
-  // kLocalShare of it) and their neighbours (up to kMaxLocalRows rows in all, the neighbours of
-  // the vertices holding the most first) are solved for by CG on their rows of A (block-Jacobi,
+  // kLocalShare of it) and their neighbours (up to kMaxLocalRows rows in all and a
+  // kLocalRowsPer-th of the mesh's vertices, the neighbours of the vertices holding the most
+  // first) are solved for by CG on their rows of A (block-Jacobi,
   // the other vertices held at the warm start), and the residual kept exact (r = b - A dv) on
   // them and on their neighbours: CG then starts from a better dv, and ends at the same
   // tolerance.
   static constexpr int kMaxLocal = 96;
   static constexpr int kMaxLocalRows = 128;
+  static constexpr int kLocalRowsPer = 40;  // vertices of the mesh per row solved for, at least
   static constexpr double kLocalTrigger = 1e4;  // first residual over tolerance, squared
   static constexpr double kLocalPick = 1e-3;    // of the residual squared, a vertex's least
   static constexpr double kLocalShare = 0.5;    // of the residual squared, the picked ones' least
