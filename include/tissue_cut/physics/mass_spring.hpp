@@ -49,9 +49,9 @@ struct MassSpringParams {
   /// vertices alone (the rest held at the warm start) and CG starts from there: the same
   /// tolerance, in fewer whole-mesh iterations (see MassSpring::presolveLocally()).
   bool local_presolve = true;
-  /// The local solve takes those vertices' neighbours as unknowns too (kMaxLocalRows in all):
-  /// solved for alone, the few vertices leave the rest of the residual around them (false: the
-  /// few alone, as until session 31).
+  /// The local solve takes those vertices' neighbours as unknowns too (up to 128 rows and a 40th
+  /// of the mesh's vertices): solved for alone, the few vertices leave the rest of the residual
+  /// around them (false: the few alone, as until session 31).
   bool local_presolve_neighbours = true;
   /// Threads the implicit step's loops run on (at most the machine's hardware threads). The
   /// result depends on the count (sums are split), never on timing.
@@ -205,10 +205,9 @@ class MassSpring {
   // instead of 3-4. The vertices that hold the residual (up to kMaxLocal, together at least
   // kLocalShare of it) and their neighbours (up to kMaxLocalRows rows in all and a
   // kLocalRowsPer-th of the mesh's vertices, the neighbours of the vertices holding the most
-  // first) are solved for by CG on their rows of A (block-Jacobi,
-  // the other vertices held at the warm start), and the residual kept exact (r = b - A dv) on
-  // them and on their neighbours: CG then starts from a better dv, and ends at the same
-  // tolerance.
+  // first) are solved for by CG on their rows of A (block-Jacobi, the other vertices held at the
+  // warm start), and the residual kept exact (r = b - A dv) on them and on their neighbours: CG
+  // then starts from a better dv, and ends at the same tolerance.
   static constexpr int kMaxLocal = 96;
   static constexpr int kMaxLocalRows = 128;
   static constexpr int kLocalRowsPer = 40;  // vertices of the mesh per row solved for, at least

@@ -790,7 +790,7 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   for (const auto& e : pick) place(e.second);
   // Solved for alone, they leave most of what remains of the residual on their neighbours (in
   // the 20k organ's replay: 45 times the tolerance after the local solve at the median, against
-  // 12 with the neighbours; 108 steps of 5 CG iterations or more against 31). The neighbours of
+  // 12 with the neighbours; 108 steps of 5 CG iterations or more against 33). The neighbours of
   // the vertices holding the most come first, up to kMaxLocalRows rows and a kLocalRowsPer-th of
   // the mesh's vertices: on the 5k organ 128 rows cost more than the iterations they saved.
   const int max_rows = std::min(kMaxLocalRows, mesh_->numVertices() / kLocalRowsPer);
@@ -1143,7 +1143,7 @@ bool MassSpring::stepImplicit(double dt) {
       const Vec3 curve = curvature(warm[v], warm_prev[v], warm_prev2[v]);
       const Vec3 miss = dv_[v] - linear;
       const double qm = (miss - curve).squaredNorm(), lm = miss.squaredNorm();
-      quadratic_at[v] = !compare                         ? kLinearCloser
+      quadratic_at[v] = !compare                    ? kLinearCloser
                         : qm * kClearlyCloser2 < lm ? kQuadraticCloser
                         : lm * kClearlyCloser2 < qm ? kLinearCloser
                                                     : kEitherCloser;
