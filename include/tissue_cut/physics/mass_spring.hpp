@@ -188,6 +188,9 @@ class MassSpring {
   /// f(u) for each vertex u on a tet of v, other than v, once each.
   template <class F>
   void forEachNeighbour(int v, F&& f);
+  /// f(u, spring) for each spring of v: its other end and its index in springs_.
+  template <typename F>
+  void forEachSpring(int v, F&& f) const;
   void buildClusters();                                 // clusters_ from strong_
   /// strong_ found again when dt changed, clusters_ built again when stale or sized for fewer
   /// vertex slots: what a step needs before its set-up (and prepare() does ahead).
@@ -249,10 +252,13 @@ class MassSpring {
   // spring by its ends costs a short list, not a hash table (whose growth and misses had cost up
   // to 120 us a tick of collapses), and no read of the springs themselves (scattered in springs_).
   struct SpringRef {
-    int other;  // the higher end
+    int other;  // the other end: the higher in springs_from_, the lower in springs_to_
     int index;  // in springs_
   };
   std::vector<std::vector<SpringRef>> springs_from_;
+  // Per vertex, its springs to lower vertices (other: the lower end), so that a vertex's
+  // springs are listed without a search (the local solve's set-up).
+  std::vector<std::vector<SpringRef>> springs_to_;
   std::vector<Vec3> warm_;                        // last velocity change, per vertex
   std::vector<Vec3> warm_prev_;                   // the one before (warm start by extrapolation)
   std::vector<Vec3> warm_prev2_;                  // and the one before that

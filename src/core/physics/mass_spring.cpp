@@ -199,12 +199,18 @@ void MassSpring::setSpring(int a, int b, double volume) {
     // Swap-remove: the last spring takes the slot (and its place in its first end's list).
     const int last = static_cast<int>(springs_.size()) - 1;
     auto at_index = [](int i) { return [i](const SpringRef& r) { return r.index == i; }; };
-    std::vector<SpringRef>& at = springs_from_[springs_[found].a];
-    at.erase(std::find_if(at.begin(), at.end(), at_index(found)));
+    for (auto* lists : {&springs_from_, &springs_to_}) {
+      std::vector<SpringRef>& at =
+          (*lists)[lists == &springs_from_ ? springs_[found].a : springs_[found].b];
+      at.erase(std::find_if(at.begin(), at.end(), at_index(found)));
+    }
     if (found != last) {
       springs_[found] = springs_[last];
-      std::vector<SpringRef>& moved = springs_from_[springs_[found].a];
-      std::find_if(moved.begin(), moved.end(), at_index(last))->index = found;
+      for (auto* lists : {&springs_from_, &springs_to_}) {
+        std::vector<SpringRef>& moved =
+            (*lists)[lists == &springs_from_ ? springs_[found].a : springs_[found].b];
+        std::find_if(moved.begin(), moved.end(), at_index(last))->index = found;
+      }
     }
     springs_.pop_back();
     return;
@@ -221,7 +227,9 @@ void MassSpring::setSpring(int a, int b, double volume) {
   const Spring s{std::min(a, b), std::max(a, b), length, k};
   if (found < 0) {
     growSlots(&springs_from_, s.a + 1);
+    growSlots(&springs_to_, s.b + 1);
     springs_from_[s.a].push_back({s.b, static_cast<int>(springs_.size())});
+    springs_to_[s.b].push_back({s.a, static_cast<int>(springs_.size())});
     springs_.push_back(s);
   } else {
     springs_[found] = s;
@@ -595,6 +603,14 @@ void MassSpring::forEachNeighbour(int v, F&& f) {
     }
 }
 
+template <typename F>
+void MassSpring::forEachSpring(int v, F&& f) const {
+  if (v < static_cast<int>(springs_from_.size()))
+    for (const SpringRef& r : springs_from_[v]) f(r.other, r.index);
+  if (v < static_cast<int>(springs_to_.size()))
+    for (const SpringRef& r : springs_to_[v]) f(r.other, r.index);
+}
+
 void MassSpring::updateStrong(const std::vector<int>& vertices) {
   // A spring's strength changes with its stiffness and its ends' masses: those of the changed
   // tets' edges and vertices, so every spring that can change has an end among `vertices`
@@ -800,7 +816,7 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
     });
     for (const auto& e : pick) {
       if (static_cast<int>(local_vertices_.size()) >= max_rows) break;
-      forEachNeighbour(e.second, [&](int u) {
+      forEachSpring(e.second, [&](int u, int) {
         if (local_seen_[u] == local_stamp_ || held_[u] ||
             static_cast<int>(local_vertices_.size()) >= max_rows)
           return;
@@ -812,11 +828,10 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   local_springs_.clear();
   for (int i = 0; i < m; ++i) {
     const int v = local_vertices_[i];
-    forEachNeighbour(v, [&](int u) {
+    forEachSpring(v, [&](int u, int k) {
       const bool known = local_seen_[u] == local_stamp_;
       if (known && local_index_[u] < m && u < v) return;  // listed from u
-      const int k = findSpring(std::min(u, v), std::max(u, v));
-      if (k < 0 || packed_at_[k] < 0) return;
+      if (packed_at_[k] < 0) return;
       if (!known) place(u);
       local_springs_.push_back({i, local_index_[u], packed_at_[k]});
     });
