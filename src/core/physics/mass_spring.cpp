@@ -845,7 +845,7 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   }
   for (auto* x : {&local_r_, &local_z_, &local_p_, &local_q_, &local_x_})
     x->assign(total, Vec3::Zero());
-  // Local PCG on the picked rows; the neighbours' residuals follow each step (A dx there).
+  // Local PCG on the rows solved for; the neighbours' residuals follow each step (A dx there).
   const double md = mass_damping_;
   double rz = 0.0, rr_local = 0.0;
   for (int i = 0; i < m; ++i) {
