@@ -14,6 +14,10 @@ prints the medians over --repeats runs of each:
   us/cut tet              (t.Repl + t.EC) / #CuT of a run without physics (as in the paper; the
                           cutter's time includes its search near the blade on every tick); and
                           the CPU time of all ticks of that run over #CuT
+  split                   the same (t.Repl + t.EC) / #CuT in three parts, from that run's tick
+                          log: the cutter on the ticks that replace no tet (following the blade,
+                          and opening the cut where that waited), the cutter on the ticks that
+                          replace tets, and the collapse queue
   4x ratio                us/cut tet of the 80k mesh over that of the 20k mesh
   machine check           bench_core's implicit step of its 20k block on one thread and on two,
                           before and after the replays (the machine's speed drifts, and its
@@ -24,6 +28,7 @@ usage: scripts/bench_table.py [--build build] [--repeats 5] [--sizes 5000 20000 
 Meshes, path and configuration go to BUILD/bench/ (made once, by meshes/src/make_organ.py and
 scripts/make_path.py). Needs gmsh and tetgen. Run it on a quiet machine: it measures time."""
 import argparse
+import csv
 import json
 import os
 import platform
@@ -52,14 +57,27 @@ def run(cmd):
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
 
 
-def replay(build, mesh, path, config, stats, physics):
+def replay(build, mesh, path, config, stats, physics, tick_log=None):
     cmd = [os.path.join(build, 'devel/lib/tissue_cut/cut_replay'), '--mesh', mesh, '--path', path,
            '--blade-length', BLADE, '--config', config, '--quiet', '--stats', stats]
     if not physics:
         cmd.append('--no-physics')
+    if tick_log:
+        cmd += ['--tick-log', tick_log]
     run(cmd)
     with open(stats) as f:
-        return json.load(f)
+        result = json.load(f)
+    if tick_log:
+        # The cutter's time on the ticks that replace no tet and on those that do [ms].
+        idle = busy = 0.0
+        with open(tick_log) as f:
+            for row in csv.DictReader(f):
+                if int(row['cut_tets']) > 0:
+                    busy += float(row['cut_ms'])
+                else:
+                    idle += float(row['cut_ms'])
+        result['cut_split_ms'] = (idle, busy)
+    return result
 
 
 def machine_check(build):
@@ -138,7 +156,8 @@ def main():
                 full[t].append(replay(a.build, prefix + '.node', path, threaded[t],
                                       os.path.join(out, 'full%d_t%d_%d.json' % (n, t, k)), True))
             plain.append(replay(a.build, prefix + '.node', path, config,
-                                os.path.join(out, 'plain%d_%d.json' % (n, k)), False))
+                                os.path.join(out, 'plain%d_%d.json' % (n, k)), False,
+                                os.path.join(out, 'plain%d_%d_ticks.csv' % (n, k))))
         for t in a.threads:
             runs = full[t]
             physics_rows.append({
@@ -169,6 +188,12 @@ def main():
             'us_per_cut': median(cut_cost),
             'cpu_per_cut': median([s['ticks']['cpu_total_ms'] * 1000.0 /
                                    max(1, s['cut']['cut_tetrahedra']) for s in plain]),
+            'idle_per_cut': median([s['cut_split_ms'][0] * 1000.0 /
+                                    max(1, s['cut']['cut_tetrahedra']) for s in plain]),
+            'busy_per_cut': median([s['cut_split_ms'][1] * 1000.0 /
+                                    max(1, s['cut']['cut_tetrahedra']) for s in plain]),
+            'ec_per_cut': median([s['collapse']['time_ms'] * 1000.0 /
+                                  max(1, s['cut']['cut_tetrahedra']) for s in plain]),
         })
     check_after = machine_check(a.build)
     print('machine: %s, %d cores, %s; %d runs each, medians' %
@@ -188,12 +213,14 @@ def main():
     print()
     print('Without physics (collapse on):')
     print('| tets | cut tets | t.Repl ms | t.EC ms | us per cut tet (t.Repl + t.EC) | '
+          'split: cutter on ticks replacing none + on ticks replacing + collapse | '
           'us per cut tet (CPU of all ticks) | tick p99 ms (wall) |')
-    print('|---|---|---|---|---|---|---|')
+    print('|---|---|---|---|---|---|---|---|')
     for r in rows:
-        print('| %d | %d | %.1f | %.1f | %.0f | %.0f | %.2f |' %
+        print('| %d | %d | %.1f | %.1f | %.0f | %.0f + %.0f + %.0f | %.0f | %.2f |' %
               (r['tets'], r['cut_plain'], r['repl_ms'], r['ec_ms'], r['us_per_cut'],
-               r['cpu_per_cut'], r['p99_plain']))
+               r['idle_per_cut'], r['busy_per_cut'], r['ec_per_cut'], r['cpu_per_cut'],
+               r['p99_plain']))
     by_size = dict(zip(a.sizes, rows))
     if 20000 in by_size and 80000 in by_size:
         print('4x ratio (us per cut tet, 80k over 20k): %.2f (t.Repl + t.EC), %.2f (CPU)' %
