@@ -275,6 +275,46 @@ TEST(Collapse, UnderALimitTheCostOfFollowingTheChangesCountsToo) {
   EXPECT_GT(workedOffAtOnceAndInTicks(1000.0, 200.0, 0.0, 20.0).stopped, 5);
 }
 
+// Under a limit, a step after a call's first is taken only where the time a step is likely to
+// take (the 90th percentile of those measured lately, their changes' follow cost included) still
+// fits before the limit: a call stops before it, not at the first check past it, so that a tick
+// ends by its deadline. The cut block's queue worked off in calls of 2 ms on a clock of 10 us a
+// reading and a follow cost of 20 us a tet: of the calls the limit stopped, few end past it (only
+// where a step took longer than most); with each call stopping at the first check past the
+// limit, as before the reserve, every one of them would.
+TEST(Collapse, UnderALimitAStepIsTakenOnlyWhereItLikelyEndsBeforeIt) {
+  Tissue tissue(withCollapse(false, 0.06), makeBlock());
+  const ChangeRecord all = cutThroughWithEveryTetNew(&tissue);
+  TetMesh mesh = tissue.mesh();
+  CollapseQueue queue(&mesh, tissue.config().collapse.tau, 0.0);
+  double clock = 0.0;
+  queue.setBudgetClock([&] { return clock += 10.0; });
+  const double follow_us_per_tet = 20.0, limit_us = 2000.0;
+  queue.setFollowCost(follow_us_per_tet);
+  queue.queueFrom(all, everyTet);
+  int stopped_calls = 0, late_calls = 0;
+  double latest = 0.0;
+  for (int calls = 0; calls < 10000 && queue.pending() > 0; ++calls) {
+    ChangeRecord change;
+    const double before = clock;
+    queue.process(noneBusy, everyTet, &change, true, limit_us);
+    if (queue.pending() == 0) break;  // ran out of work, not of time
+    const double used =
+        clock - before - 10.0 +  // the readings before the call's first check
+        follow_us_per_tet * static_cast<double>(change.added_tets.size() + change.removed_tets.size());
+    ++stopped_calls;
+    if (used > limit_us) ++late_calls;
+    latest = std::max(latest, used - limit_us);
+  }
+  std::printf("%d calls stopped by the limit, %d of them past it (by %.0f us at most); reserve "
+              "%.0f us\n", stopped_calls, late_calls, latest, queue.stepReserve());
+  EXPECT_EQ(queue.pending(), 0);
+  EXPECT_EQ(mesh.validate(), "");
+  EXPECT_GT(stopped_calls, 20);
+  EXPECT_GT(queue.stepReserve(), 0.0);
+  EXPECT_LE(late_calls, stopped_calls / 5);
+}
+
 namespace {
 
 // The block cut straight through with physics on (no gravity: it stays where it is) and the

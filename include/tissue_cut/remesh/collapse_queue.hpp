@@ -67,6 +67,10 @@ class CollapseQueue {
   /// added] (the physics and the cutter update their state for them): under a limit, the work
   /// stops once its time plus that reaches the limit, so that the tick ends by its deadline.
   void setFollowCost(double us_per_tet) { follow_us_per_tet_ = us_per_tet; }
+  /// Under a limit, each step after a call's first is taken only if the time it is likely to
+  /// take fits before the limit too: the 90th percentile of the last kRecentSteps steps' times
+  /// measured under a limit (their own and their changes' follow cost) [us]; 0 before any.
+  double stepReserve() const;
   /// The clock the budget is measured on [us, any origin]; null (the default): the steady clock.
   /// A test gives one that advances a fixed step a reading, so that it knows where a budget ends.
   void setBudgetClock(std::function<double()> now_us) { budget_clock_ = std::move(now_us); }
@@ -130,6 +134,10 @@ class CollapseQueue {
   TetMesh* mesh_;
   double tau_, budget_us_;
   double follow_us_per_tet_ = 0.0;
+  // The last steps' times under a limit [us] (a ring; see stepReserve()), and how many so far.
+  static constexpr std::size_t kRecentSteps = 64;
+  std::array<double, kRecentSteps> recent_steps_{};
+  std::size_t steps_measured_ = 0;
   std::function<double()> budget_clock_;
   std::priority_queue<Entry> heap_;
   // A tet whose work stopped at the budget: the next call works it first (taken off the heap
