@@ -1,6 +1,8 @@
 // The model's figures: the paper's counts (#CuT, #CrT, #RmT), times, quality and tick timing.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -8,6 +10,17 @@
 #include "tissue_cut/mesh/quality.hpp"
 
 namespace tissue_cut {
+
+/// The percent-th percentile of the first min(count, N) entries of a ring of the last N values
+/// (count: how many were ever written into it).
+template <std::size_t N>
+double ringPercentile(const std::array<double, N>& ring, long long count, int percent) {
+  const auto n = static_cast<std::ptrdiff_t>(std::min<long long>(count, N));
+  std::array<double, N> sorted = ring;
+  const auto at = sorted.begin() + n * percent / 100;
+  std::nth_element(sorted.begin(), at, sorted.begin() + n);
+  return *at;
+}
 
 /// Tick durations: percentiles over every recorded tick, or over the most recent ones.
 class TickTimes {

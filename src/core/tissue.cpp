@@ -22,15 +22,6 @@ constexpr double kVolumeBudget = 5e-4;
 // springs costs the next physics steps CG iterations.
 constexpr double kMinChunkUs = 100.0;
 
-// The percent-th percentile of the first min(count, N) entries of a ring of the last N values.
-template <std::size_t N>
-double ringPercentile(const std::array<double, N>& ring, long long count, int percent) {
-  const auto n = static_cast<std::ptrdiff_t>(std::min<long long>(count, N));
-  std::array<double, N> sorted = ring;
-  const auto at = sorted.begin() + n * percent / 100;
-  std::nth_element(sorted.begin(), at, sorted.begin() + n);
-  return *at;
-}
 }  // namespace
 
 MeshData loadTissueMesh(const Config& config) {

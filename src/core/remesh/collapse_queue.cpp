@@ -7,6 +7,7 @@
 #include <set>
 
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/statistics.hpp"
 #include "tissue_cut/remesh/vertex_smoothing.hpp"
 
 namespace tissue_cut {
@@ -340,12 +341,8 @@ void CollapseQueue::queueFrom(const ChangeRecord& change,
 }
 
 double CollapseQueue::stepReserve() const {
-  const std::size_t n = std::min(steps_measured_, kRecentSteps);
-  if (n == 0) return 0.0;
-  std::array<double, kRecentSteps> sorted = recent_steps_;
-  const auto at = sorted.begin() + (n * 9) / 10;
-  std::nth_element(sorted.begin(), at, sorted.begin() + n);
-  return *at;
+  if (steps_measured_ == 0) return 0.0;
+  return ringPercentile(recent_steps_, static_cast<long long>(steps_measured_), 90);
 }
 
 void CollapseQueue::process(const std::function<bool(int)>& busy,
