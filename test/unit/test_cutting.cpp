@@ -554,6 +554,35 @@ TEST(Cutting, KeptGroupsSplitAsGroupsFoundAfresh) {
   }
 }
 
+// A blade coming back along its own cut, trembling 10-30 um a tick (the noise of a haptic
+// device or a tracked tool), follows the wound: the block stays one piece, its boundary keeps the
+// Euler characteristic the way out left (2: a slit), and the way back opens (almost) nothing the
+// way out did not. Before, the way back snapped vertices the way out had kept off the cut (a
+// point made on one of their edges first stood for them, or they lay in the crease between two
+// ticks' quads) and cut 31-64 chips off the wall in each of these 16 runs.
+TEST(Cutting, ABladeComingBackAlongItsCutCutsNoChipsOffIt) {
+  const MeshData block = makeBlock();
+  for (const double sigma : {0.00001, 0.00003}) {
+    for (unsigned seed = 11; seed <= 18; ++seed) {
+      TremblingScalpel scalpel(seed, sigma);
+      std::vector<BladeSegment> blades;
+      for (int k = 0; k <= 1000; ++k)
+        blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
+      const std::vector<BladeSegment> out(blades.begin(), blades.begin() + 501);
+      TetMesh there(block.V, block.T), back(block.V, block.T);
+      const CutCounts a = cutAlong(out, CutterOptions{}, &there);
+      const CutCounts b = cutAlong(blades, CutterOptions{}, &back);
+      SCOPED_TRACE("tremble " + std::to_string(sigma) + " m, seed " + std::to_string(seed));
+      ASSERT_EQ(countPieces(there), 1);
+      EXPECT_GT(a.separated_vertices, 100);
+      EXPECT_EQ(countPieces(back), 1);
+      EXPECT_EQ(boundaryEulerCharacteristic(back), boundaryEulerCharacteristic(there));
+      EXPECT_LE(b.separated_vertices - a.separated_vertices, a.separated_vertices / 50);
+      EXPECT_EQ(back.validate(), "");
+    }
+  }
+}
+
 // A pending tet the blade leaves on the tick it takes a new point gets its final split straight
 // away, without first being subdivided anew with the point as the tets the blade is still in are
 // (a subdivision the final split would replace at once). Over a trembling stroke out and back,

@@ -8,7 +8,8 @@
 // blade leaves it, it is replaced by SplitTable's split, its cut faces are marked, and every
 // vertex the cut touched gets one copy per group of its tets joined across unmarked faces.
 // Vertices within `snap` of the swept surface are taken as lying on it (no sliver point next to
-// them), so cuts through grid vertices, along edges and along faces come out clean.
+// them), so cuts through grid vertices, along edges and along faces come out clean; one whose
+// edge got a point first stays off the cut for good (a later pass would cut chips off there).
 #pragma once
 
 #include <array>
@@ -251,6 +252,12 @@ class Cutter {
   void setWoundFlag(int v, unsigned char flag);
   /// A crossing at x of the edge or face `verts` lies on an earlier cut in the tets around it.
   bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const;
+  /// x lies within the snap distance of the blade's line at the start of this tick's sweep
+  /// (`tris`, as sweptTriangles() gives them), beside it and not ahead of the blade.
+  bool nearTrailingLine(const Vec3& x, const std::array<Triangle, 2>& tris) const;
+  // Vertices kept off the cut because a point was made on one of their edges first, with their
+  // rest positions then (a slot reused or a vertex moved since no longer matches).
+  std::unordered_map<int, Vec3> kept_off_;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
   // Vertices of the tets and marks changed since separate() last ran (by the cutter or, through
   // follow(), by collapse): a waiting vertex is tried again only within two rings of one of them,

@@ -37,6 +37,7 @@ void Cutter::reset() {
   marked_at_.clear();
   previous_.reset();
   deferred_.clear();
+  kept_off_.clear();
   changed_near_.clear();
   counts_ = CutCounts{};
   stateChanged();
@@ -538,10 +539,33 @@ void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weigh
   }
 }
 
+bool Cutter::nearTrailingLine(const Vec3& x, const std::array<Triangle, 2>& tris) const {
+  // tris[0] = (base0, tip0, tip1), tris[1] = (base0, tip1, base1): the blade came from base0-tip0
+  // and is at base1-tip1.
+  const Vec3 &base0 = tris[0][0], &tip0 = tris[0][1], &tip1 = tris[1][1], &base1 = tris[1][2];
+  const Vec3 line = tip0 - base0;
+  const double len2 = line.squaredNorm();
+  if (!(len2 > 0)) return false;
+  const double s = line.dot(x - base0) / len2;
+  if (!(s > 0.0 && s < 1.0) || (x - base0 - s * line).norm() >= snap_distance_) return false;
+  // Not ahead of the blade: a slow blade's quad is thin, and the band around the line reaches
+  // tissue it has not come to yet.
+  const Vec3 along = (tip1 - base1).normalized();
+  Vec3 motion = 0.5 * ((base1 + tip1) - (base0 + tip0));
+  motion -= motion.dot(along) * along;
+  return (x - base1).dot(motion) <= 0.0;
+}
+
 void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& normal) {
   if (onCut(v)) return;
   const Vec3& x = mesh_->current(v);
-  if (!pointNearTriangle(x, tris[0], snap_distance_) &&
+  // Where a trembling blade turns from one tick to the next, the two ticks' quads meet along the
+  // blade's line at an angle, and a vertex just outside that crease lies over neither quad
+  // although it is within the snap distance of both: it is taken when it lies that close to the
+  // line the blade came from. Only a vertex not on a wound: a wound's own points there are
+  // followed by the band below.
+  const bool at_crease = !onWound(v) && nearTrailingLine(x, tris);
+  if (!at_crease && !pointNearTriangle(x, tris[0], snap_distance_) &&
       !pointNearTriangle(x, tris[1], snap_distance_)) {
     // A point of an earlier cut whose wall runs along this sweep is taken as lying on it within
     // a wider band: the blade is moving inside that wound (which the tissue has moved since).
@@ -551,7 +575,16 @@ void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& nor
         !woundFacing(v, normal))
       return;
   }
-  // A vertex next to a cut point already made stays off the cut: the point took its place.
+  // A vertex next to a cut point already made stays off the cut: the point took its place. It
+  // stays off for good, once that tet is replaced too: snapped later, by a blade coming back
+  // along the cut, it would give faces along the cut through it and the points around it, a
+  // fraction of a millimetre off the wall, and the tets between would be cut off as chips (a
+  // blade trembling 10 um on its way back over the block cut off 36 of them).
+  const auto kept = kept_off_.find(v);
+  if (kept != kept_off_.end()) {
+    if (kept->second == mesh_->rest(v)) return;
+    kept_off_.erase(kept);  // the slot holds another vertex now, or this one was moved
+  }
   for (int t : mesh_->vertexTets(v)) {
     const int pid = pending_of_[t];
     if (pid < 0) continue;
@@ -559,7 +592,10 @@ void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& nor
     const int i = localIndex(p.cut.corner, v);
     if (i < 0) return;  // v is itself a cut point of a pending tet
     for (int e = 0; e < 6; ++e)
-      if (p.cut.edge_point[e] >= 0 && (kTetEdge[e][0] == i || kTetEdge[e][1] == i)) return;
+      if (p.cut.edge_point[e] >= 0 && (kTetEdge[e][0] == i || kTetEdge[e][1] == i)) {
+        if (!onWound(v)) kept_off_[v] = mesh_->rest(v);
+        return;
+      }
   }
   setWoundFlag(v, kOnCut);
   std::vector<int> around = mesh_->vertexTets(v);
