@@ -251,7 +251,17 @@ class Cutter {
   }
   void setWoundFlag(int v, unsigned char flag);
   /// A crossing at x of the edge or face `verts` lies on an earlier cut in the tets around it.
-  bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const;
+  /// *standing (if given) is the wound vertex the crossing stands for, or -1 (none, or a wound
+  /// edge of a face).
+  bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal,
+                   int* standing = nullptr) const;
+  // This stroke's edge crossings dropped because a wound vertex at one end stood for them: the
+  // pairs (that vertex, the other end) as keyOf() gives them. A tent split of a tet holding both
+  // may go through the vertex instead (see finalize()).
+  std::unordered_set<long long> stood_for_;
+  static long long pairKey(int u, int v) {
+    return (static_cast<long long>(u) << 32) | static_cast<unsigned>(v);
+  }
   /// x lies within the snap distance of the blade's line at the start of this tick's sweep
   /// (`tris`, as sweptTriangles() gives them), beside it and not ahead of the blade.
   bool nearTrailingLine(const Vec3& x, const std::array<Triangle, 2>& tris) const;

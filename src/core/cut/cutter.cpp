@@ -38,6 +38,7 @@ void Cutter::reset() {
   previous_.reset();
   deferred_.clear();
   kept_off_.clear();
+  stood_for_.clear();
   changed_near_.clear();
   counts_ = CutCounts{};
   stateChanged();
@@ -660,6 +661,27 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
   if (split.kind == SplitKind::kNeedsSteiner) {
     if (p.steiner < 0) p.steiner = addSteiner(p, change);
     split = splitTet(p.cut, rest, cur, p.steiner);
+  }
+  // A tent's sheet ends at its centroid. Where a later pass of the blade crossed this tet's edge
+  // next to a wound vertex at one end, the crossing was dropped because that vertex stood for it
+  // (woundAround()); if the cut through that corner separates the tet cleanly, it is taken
+  // instead, so that the sheet reaches the vertex and the earlier cut. Otherwise the sheet stopped
+  // one face short of it and left a bridge across the wound (the bench incision's mouth on the
+  // 20k organ; handles in the wounds of strokes trembling 0.1 mm a tick).
+  if (split.kind == SplitKind::kTent && !stood_for_.empty()) {
+    for (int i = 0; i < 4 && split.kind == SplitKind::kTent; ++i) {
+      if (p.cut.on_cut[i]) continue;
+      bool stood = false;
+      for (int j = 0; j < 4 && !stood; ++j)
+        stood = j != i && stood_for_.count(pairKey(p.cut.corner[i], p.cut.corner[j])) > 0;
+      if (!stood) continue;
+      TetCut through = p.cut;
+      through.on_cut[i] = true;
+      TetSplit other = splitTet(through, rest, cur, p.steiner);
+      if (other.kind != SplitKind::kComplete) continue;
+      p.cut = through;
+      split = std::move(other);
+    }
   }
   // A tet whose pieces predate its last points (finalizeLeft() did not subdivide it again) gets
   // pieces that conform to every point wherever they stay in the mesh: kept as they are, or kept
@@ -1328,7 +1350,13 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       const Vec3 &pa = mesh_->current(a), &pb = mesh_->current(b);
       if (segmentCrossesTriangle(pa, pb, tri, 1e-9, &s, &bary)) {
         const Vec3 x = pa + s * (pb - pa);
-        if (!nearFront(x) && !woundAround(x, {a, b}, normal)) registerEdgePoint(a, b, s, change);
+        int standing = -1;
+        if (nearFront(x)) break;
+        if (!woundAround(x, {a, b}, normal, &standing)) {
+          registerEdgePoint(a, b, s, change);
+        } else if (standing >= 0) {
+          stood_for_.insert(pairKey(standing, standing == a ? b : a));
+        }
         break;
       }
     }
@@ -1416,7 +1444,9 @@ bool Cutter::woundFacing(int v, const Vec3& normal) const {
   return false;
 }
 
-bool Cutter::woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal) const {
+bool Cutter::woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal,
+                         int* standing) const {
+  if (standing) *standing = -1;
   // A crossing of an edge or face near one of its vertices, or (a face) near one of its edges,
   // that lies on an earlier cut stands for that vertex or edge: the blade follows that cut there
   // (coming back along its own wound, which the tissue may have moved since, or a tip at the
@@ -1429,7 +1459,10 @@ bool Cutter::woundAround(const Vec3& x, const std::vector<int>& verts, const Vec
     const int u = verts[k];
     if (!onWound(u)) continue;
     const Vec3& p = mesh_->current(u);
-    if (nearWound(u, (x - p).norm(), normal)) return true;
+    if (nearWound(u, (x - p).norm(), normal)) {
+      if (standing) *standing = u;
+      return true;
+    }
     if (n < 3) continue;
     const int w = verts[(k + 1) % n];
     if (onWound(w) && nearWound(u, distanceToSegment(x, p, mesh_->current(w)), normal))
@@ -1465,6 +1498,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   auto endStroke = [&] {
     crossFront({{previous_->base, previous_->tip}}, last_motion_, change);
     finalizeLeft(std::nullopt, change, true);
+    stood_for_.clear();
   };
   if (!blade) {
     if (previous_) endStroke();
