@@ -256,7 +256,7 @@ class Cutter {
   bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal,
                    int* standing = nullptr) const;
   // This stroke's edge crossings dropped because a wound vertex at one end stood for them: the
-  // pairs (that vertex, the other end) as keyOf() gives them. A tent split of a tet holding both
+  // pairs (that vertex, the other end) as pairKey() gives them. A tent split of a tet holding both
   // may go through the vertex instead (see finalize()).
   std::unordered_set<long long> stood_for_;
   static long long pairKey(int u, int v) {
