@@ -486,14 +486,19 @@ TEST(Cutting, SweepBoundsCarriedAcrossTicksCutAsFreshOnesDo) {
 
 namespace {
 
-// A scalpel trembling hard out and back in 1 s at 1 kHz. Its tremble is drawn as it goes: the
-// blades are taken once, so that every cut replaying them sees the same ones.
-std::vector<BladeSegment> outAndBack() {
-  TremblingScalpel scalpel(11, 0.0003);
+// A scalpel trembling by `sigma` [m] a tick along the stroke at 1 kHz, out in 0.5 s and (with
+// `back`) back again in 0.5 s more. Its tremble is drawn as it goes: the blades are taken once,
+// so that every cut replaying them sees the same ones.
+std::vector<BladeSegment> trembling(unsigned seed, double sigma, bool back) {
+  TremblingScalpel scalpel(seed, sigma);
   std::vector<BladeSegment> blades;
-  for (int k = 0; k <= 1000; ++k) blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
+  for (int k = 0; k <= (back ? 1000 : 500); ++k)
+    blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
   return blades;
 }
+
+// Trembling hard, out and back.
+std::vector<BladeSegment> outAndBack() { return trembling(11, 0.0003, true); }
 
 // Cuts `mesh` along `blades` with these options (the tissue told it does not move), then lifts
 // the blade; validates the mesh every `validate_every` ticks (0: only the cutter, at the end).
@@ -564,11 +569,8 @@ TEST(Cutting, ABladeComingBackAlongItsCutCutsNoChipsOffIt) {
   const MeshData block = makeBlock();
   for (const double sigma : {0.00001, 0.00003}) {
     for (unsigned seed = 11; seed <= 18; ++seed) {
-      TremblingScalpel scalpel(seed, sigma);
-      std::vector<BladeSegment> blades;
-      for (int k = 0; k <= 1000; ++k)
-        blades.push_back(scalpel.at(1.0 - std::abs(k / 500.0 - 1.0)));
-      const std::vector<BladeSegment> out(blades.begin(), blades.begin() + 501);
+      const std::vector<BladeSegment> blades = trembling(seed, sigma, true);
+      const std::vector<BladeSegment> out = trembling(seed, sigma, false);
       TetMesh there(block.V, block.T), back(block.V, block.T);
       const CutCounts a = cutAlong(out, CutterOptions{}, &there);
       const CutCounts b = cutAlong(blades, CutterOptions{}, &back);
@@ -595,9 +597,7 @@ TEST(Cutting, ATremblingStrokeLeavesNoBridgeAcrossItsWound) {
   int handles = 0;
   for (const double sigma : {0.00003, 0.0001}) {
     for (unsigned seed = 11; seed <= 20; ++seed) {
-      TremblingScalpel scalpel(seed, sigma);
-      std::vector<BladeSegment> blades;
-      for (int k = 0; k <= 500; ++k) blades.push_back(scalpel.at(k / 500.0));
+      const std::vector<BladeSegment> blades = trembling(seed, sigma, false);
       TetMesh mesh(block.V, block.T);
       const CutCounts counts = cutAlong(blades, CutterOptions{}, &mesh);
       EXPECT_GT(counts.separated_vertices, 100);
