@@ -54,6 +54,7 @@ struct Statistics {
     int created_tetrahedra = 0;  ///< tets made by those replacements (#CrT)
     double time_ms = 0.0;        ///< time spent in replacement (t.Repl)
     int refused = 0;             ///< replacements the mesh refused (cut left closed there)
+    long long quiet_ticks = 0;   ///< ticks the blade moved on that needed no sweep (skip_quiet)
   } cut;
   struct {
     int collapsed_edges = 0, removed_tetrahedra = 0, pending = 0;  ///< #RmT = removed_tetrahedra

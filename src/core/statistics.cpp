@@ -51,7 +51,8 @@ nlohmann::json Statistics::toJson() const {
   j["cut"] = {{"cut_tetrahedra", cut.cut_tetrahedra},
               {"created_tetrahedra", cut.created_tetrahedra},
               {"time_ms", cut.time_ms},
-              {"refused", cut.refused}};
+              {"refused", cut.refused},
+              {"quiet_ticks", cut.quiet_ticks}};
   j["collapse"] = {{"collapsed_edges", collapse.collapsed_edges},
                    {"removed_tetrahedra", collapse.removed_tetrahedra},
                    {"pending", collapse.pending},

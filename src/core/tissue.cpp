@@ -260,6 +260,7 @@ Statistics Tissue::statistics() const {
   s.cut.created_tetrahedra = cutter_->counts().created_tetrahedra;
   s.cut.time_ms = cutter_->counts().time_ms;
   s.cut.refused = cutter_->counts().refused;
+  s.cut.quiet_ticks = cutter_->counts().quiet_ticks;
   const CollapseCounts& c = collapse_->counts();
   s.collapse.collapsed_edges = c.collapsed_edges;
   s.collapse.removed_tetrahedra = c.removed_tetrahedra;

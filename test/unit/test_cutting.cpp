@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -503,12 +504,14 @@ std::vector<BladeSegment> outAndBack() { return trembling(11, 0.0003, true); }
 // Cuts `mesh` along `blades` with these options (the tissue told it does not move), then lifts
 // the blade; validates the mesh every `validate_every` ticks (0: only the cutter, at the end).
 CutCounts cutAlong(const std::vector<BladeSegment>& blades, const CutterOptions& options,
-                   TetMesh* mesh, int validate_every = 0) {
+                   TetMesh* mesh, int validate_every = 0,
+                   const std::function<double(std::size_t)>& move = nullptr) {
   Cutter cutter(mesh, options);
   for (std::size_t k = 0; k < blades.size(); ++k) {
     ChangeRecord change;
     cutter.step(blades[k], &change);
-    cutter.tissueMoved(0.0);
+    // `move` moves the tissue after tick k and says how far.
+    cutter.tissueMoved(move ? move(k) : 0.0);
     if (validate_every > 0 && k % validate_every == 0) {
       EXPECT_EQ(mesh->validate(), "") << "tick " << k;
       if (::testing::Test::HasFailure()) break;
@@ -658,6 +661,142 @@ TEST(Cutting, TetsLeftAsTheyTakeAPointAreSplitWithoutSubdividingFirst) {
   EXPECT_EQ(straight.numTets(), first.numTets());
   EXPECT_EQ(straight.numVertices(), first.numVertices());
   EXPECT_TRUE(shapes(straight) == shapes(first));
+}
+
+// The quiet ticks (CutterOptions::skip_quiet) keep the features near the blade by this distance:
+// it must never exceed the true one, and it must be the distance, not a loose bound. Against the
+// nearest of 201 x 201 sample pairs (which is at most half a sample step on each further), over
+// random segments with parallel ones and points among them, and the cases a formula may get
+// wrong: crossing, collinear, parallel and overlapping, skew with the nearest points inside.
+TEST(SweepGeometry, SegmentSegmentDistanceIsTheDistance) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto sampled = [](const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+    double best = HUGE_VAL;
+    for (int i = 0; i <= 200; ++i)
+      for (int j = 0; j <= 200; ++j)
+        best = std::min(best, (p0 + (p1 - p0) * (i / 200.0) - q0 - (q1 - q0) * (j / 200.0)).norm());
+    return best;
+  };
+  for (int trial = 0; trial < 300; ++trial) {
+    const Vec3 p0(u(rng), u(rng), u(rng)), p1(u(rng), u(rng), u(rng));
+    Vec3 q0(u(rng), u(rng), u(rng)), q1(u(rng), u(rng), u(rng));
+    if (trial % 10 == 1) q1 = q0 + 0.7 * (p1 - p0);  // parallel
+    if (trial % 10 == 2) q1 = q0;                    // a point
+    const double d = segmentSegmentDistance(p0, p1, q0, q1), s = sampled(p0, p1, q0, q1);
+    ASSERT_LE(d, s + 1e-12) << "trial " << trial;
+    ASSERT_GE(d, s - 0.5 / 200 * ((p1 - p0).norm() + (q1 - q0).norm()) - 1e-12)
+        << "trial " << trial;
+  }
+  const Vec3 o(0, 0, 0), x(1, 0, 0);
+  EXPECT_NEAR(segmentSegmentDistance(-x, x, Vec3(0, -1, 0), Vec3(0, 1, 0)), 0.0, 1e-15);
+  EXPECT_NEAR(segmentSegmentDistance(o, x, Vec3(3, 0, 0), Vec3(5, 0, 0)), 2.0, 1e-15);
+  EXPECT_NEAR(segmentSegmentDistance(o, x, Vec3(0.5, 0.3, 0), Vec3(2, 0.3, 0)), 0.3, 1e-15);
+  EXPECT_NEAR(segmentSegmentDistance(o, x, Vec3(0.5, 1, 2), Vec3(0.5, 1, 2)), std::sqrt(5.0),
+              1e-15);
+  EXPECT_NEAR(segmentSegmentDistance(-x, x, Vec3(0, -1, 0.25), Vec3(0, 1, 0.25)), 0.25, 1e-15);
+}
+
+namespace {
+
+// Both meshes the same to the slot: live tets and their vertices, live vertices and their rest
+// and current positions.
+void expectSameMesh(const TetMesh& a, const TetMesh& b) {
+  ASSERT_EQ(a.tetSlots(), b.tetSlots());
+  for (int t = 0; t < a.tetSlots(); ++t) {
+    ASSERT_EQ(a.tetAlive(t), b.tetAlive(t)) << "tet " << t;
+    if (a.tetAlive(t)) {
+      ASSERT_EQ(a.tet(t), b.tet(t)) << "tet " << t;
+    }
+  }
+  ASSERT_EQ(a.vertexSlots(), b.vertexSlots());
+  for (int v = 0; v < a.vertexSlots(); ++v) {
+    ASSERT_EQ(a.vertexAlive(v), b.vertexAlive(v)) << "vertex " << v;
+    if (a.vertexAlive(v)) {
+      ASSERT_EQ(a.rest(v), b.rest(v)) << "vertex " << v;
+      ASSERT_EQ(a.current(v), b.current(v)) << "vertex " << v;
+    }
+  }
+}
+
+// Cuts `mesh` along `blades` (then lifts the blade) with quiet ticks on or off, and with
+// check_quiet. With `bend`, the block bends up and down under the blade (each vertex by
+// 0.2 mm sin(2 pi x / 5 cm) sin(2 pi k / 200) at tick k), and the cutter is told how far.
+CutCounts cutQuietly(const std::vector<BladeSegment>& blades, bool skip, bool check, bool bend,
+                     TetMesh* mesh) {
+  CutterOptions options;
+  options.skip_quiet = skip;
+  options.check_quiet = check;
+  const double pi = 3.14159265358979323846;
+  auto bendBlock = [&](std::size_t k) {
+    const double lift = 2e-4 * (std::sin(2 * pi * (k + 1) / 200.0) - std::sin(2 * pi * k / 200.0));
+    double moved = 0.0;
+    for (int v = 0; v < mesh->vertexSlots(); ++v) {
+      if (!mesh->vertexAlive(v)) continue;
+      const double dz = lift * std::sin(2 * pi * mesh->rest(v).x() / 0.05);
+      mesh->current(v).z() += dz;
+      moved = std::max(moved, std::abs(dz));
+    }
+    return moved;
+  };
+  return cutAlong(blades, options, mesh, 0,
+                  bend ? std::function<double(std::size_t)>(bendBlock) : nullptr);
+}
+
+}  // namespace
+
+// A tick whose blade cannot have come near anything a sweep acts on is not swept
+// (CutterOptions::skip_quiet): the cut must be the same as when every tick sweeps, to the slot,
+// and check_quiet, which sweeps those ticks too, must find that they would have changed
+// nothing. Strokes out and back over the block trembling 30 um and 0.3 mm a tick, the first
+// also over the block bending under the blade.
+TEST(Cutting, QuietTicksCutAsSweptOnes) {
+  const MeshData block = makeBlock();
+  struct Case {
+    double sigma;
+    bool bend;
+  };
+  for (const Case& c : {Case{0.00003, false}, Case{0.00003, true}, Case{0.0003, false}}) {
+    SCOPED_TRACE("tremble " + std::to_string(c.sigma) + " m" + (c.bend ? ", bending" : ""));
+    const std::vector<BladeSegment> blades = trembling(11, c.sigma, true);
+    TetMesh quiet(block.V, block.T), swept(block.V, block.T), checked(block.V, block.T);
+    const CutCounts a = cutQuietly(blades, true, false, c.bend, &quiet);
+    const CutCounts b = cutQuietly(blades, false, false, c.bend, &swept);
+    CutCounts checks;
+    EXPECT_NO_THROW(checks = cutQuietly(blades, true, true, c.bend, &checked));
+    std::printf("tremble %g m%s: %lld of %zu ticks quiet\n", c.sigma, c.bend ? ", bending" : "",
+                a.quiet_ticks, blades.size());
+    EXPECT_GT(a.cut_tetrahedra, 100);
+    EXPECT_EQ(b.quiet_ticks, 0);
+    EXPECT_GT(checks.quiet_ticks, 0);  // some (its sweeps leave the searches' bounds fresher)
+    EXPECT_EQ(a.cut_tetrahedra, b.cut_tetrahedra);
+    EXPECT_EQ(a.created_tetrahedra, b.created_tetrahedra);
+    EXPECT_EQ(a.separated_vertices, b.separated_vertices);
+    expectSameMesh(quiet, swept);
+    expectSameMesh(quiet, checked);
+  }
+}
+
+// A cutter never told how far the tissue moves (tissueMoved) must assume that anything may have
+// moved: it sweeps every tick. Told that the tissue stays still, it leaves most ticks of the
+// same stroke unswept.
+TEST(Cutting, ACutterNeverToldHowTheTissueMovesSweepsEveryTick) {
+  const MeshData block = makeBlock();
+  const std::vector<BladeSegment> blades = trembling(12, 0.00003, false);
+  for (const bool told : {false, true}) {
+    TetMesh mesh(block.V, block.T);
+    Cutter cutter(&mesh, CutterOptions{});
+    for (const BladeSegment& blade : blades) {
+      ChangeRecord change;
+      cutter.step(blade, &change);
+      if (told) cutter.tissueMoved(0.0);
+    }
+    if (told) {
+      EXPECT_GT(cutter.counts().quiet_ticks, static_cast<long long>(blades.size() / 5));
+    } else {
+      EXPECT_EQ(cutter.counts().quiet_ticks, 0);
+    }
+  }
 }
 
 // A blade trembling hard inside its own wound leaves hundreds of vertices waiting to split (the

@@ -47,6 +47,17 @@ struct CutterOptions {
   /// straight away; true first subdivides it anew with the point, as the tets the blade is still
   /// in are (the same mesh, more work: for comparison).
   bool subdivide_left = false;
+  /// A tick whose blade, and the tissue as told (tissueMoved), has moved less since the last
+  /// tick that swept than the distance from the blade then to anything a sweep could act on,
+  /// except a few features tested on their own each tick (quietReach()), is not swept: it would
+  /// make no point, snap no vertex and cross no face. The same cut, less work; false sweeps every
+  /// tick (for comparison), as does a cutter never told how far the tissue moves.
+  bool skip_quiet = true;
+  /// How far the blade may move before a tick is swept again, as a fraction of the mean edge.
+  double quiet_reach = 0.1;
+  /// Sweeps the quiet ticks too and throws std::logic_error where that changed the cut (for
+  /// tests: the same cut either way, or a quiet tick was wrongly left unswept).
+  bool check_quiet = false;
 };
 
 /// The paper's counts and the cutter's own.
@@ -60,6 +71,7 @@ struct CutCounts {
   long long subdivisions = 0;      ///< pending tets subdivided anew after taking points
   int lifts = 0;                 ///< jumps treated as the blade lifted
   int refused = 0;               ///< replacements TetMesh refused (the cut left closed there)
+  long long quiet_ticks = 0;     ///< ticks the blade moved on that were not swept (skip_quiet)
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
 };
 
@@ -268,6 +280,60 @@ class Cutter {
   // Vertices kept off the cut because a point was made on one of their edges first, with their
   // rest positions then (a slot reused or a vertex moved since no longer matches).
   std::unordered_map<int, Vec3> kept_off_;
+  // Quiet ticks (CutterOptions::skip_quiet). After a tick that swept, the vertices, edges and
+  // faces a sweep could act on before the blade and the tissue have moved quiet_reach_ from the
+  // blade quiet_ref_ (quiet_moved_ so far) are kept, and each tick until then tests those alone
+  // (watchedQuiet()). Changes to the cut's state keep them (they only make more features inert);
+  // the features of tets a change adds join them (refreshGrid()).
+  bool quiet_valid_ = false;
+  BladeSegment quiet_ref_;
+  double quiet_reach_ = 0.0, quiet_moved_ = 0.0;
+  // Each kept feature with how far the moves must add up before a sweep could act on it (its
+  // distance from quiet_ref_ less its band), in that order: a tick tests only those its moves
+  // have reached.
+  struct QuietVertex {
+    double at;
+    int v;
+    bool operator<(const QuietVertex& o) const { return at < o.at || (at == o.at && v < o.v); }
+    bool operator==(const QuietVertex& o) const { return at == o.at && v == o.v; }
+  };
+  struct QuietEdge {
+    double at;
+    int a, b;  // a < b
+    bool operator<(const QuietEdge& o) const {
+      return at < o.at || (at == o.at && (a < o.a || (a == o.a && b < o.b)));
+    }
+    bool operator==(const QuietEdge& o) const { return at == o.at && a == o.a && b == o.b; }
+  };
+  struct QuietFace {
+    double at;
+    std::array<int, 3> f;  // sorted
+    bool operator<(const QuietFace& o) const { return at < o.at || (at == o.at && f < o.f); }
+    bool operator==(const QuietFace& o) const { return at == o.at && f == o.f; }
+  };
+  std::vector<QuietVertex> quiet_verts_;
+  std::vector<QuietEdge> quiet_edges_;
+  std::vector<QuietFace> quiet_faces_, quiet_base_faces_;  // near the tip's path, the base's
+  std::vector<std::pair<int, int>> quiet_scratch_;
+  double quiet_slack_ = 0.0;  // rounding room of the distances above
+  /// Sorts the kept features (and drops repeats).
+  void sortQuiet();
+  bool pieces_only_ = false;  // the change being made replaces a pending tet's pieces
+  /// Keeps the features a sweep could act on within the quiet reach of the blade `at` (this
+  /// tick's, swept), and returns that reach; 0 when it is not known (see
+  /// CutterOptions::skip_quiet).
+  double quietReach(const BladeSegment& at);
+  /// Whether a sweep only looks at v: trySnap() returns before changing anything.
+  bool snapLooksOnly(int v) const;
+  /// The edges a crossing of which changes nothing (sorted, a < b; in quiet_scratch_).
+  const std::vector<std::pair<int, int>>& refusedEdges();
+  /// Keeps what tet tv holds within the quiet reach of quiet_ref_ (`lower`: a lower bound of its
+  /// distance from it; cut_edges: the edges a crossing of which coarseAround() refuses).
+  void quietTet(const TetVerts& tv, double lower,
+                const std::vector<std::pair<int, int>>& cut_edges);
+  /// Whether this tick's sweep from `from` to `to` and its fronts leave alone every kept feature
+  /// the moves since quiet_ref_, `moved` with this tick's, have reached.
+  bool watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved) const;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
   // Vertices of the tets and marks changed since separate() last ran (by the cutter or, through
   // follow(), by collapse): a waiting vertex is tried again only within two rings of one of them,

@@ -32,6 +32,9 @@ bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance);
 /// 0 when they may meet or a corner is not finite.
 double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners);
 
+/// The distance [m] between segments p0-p1 and q0-q1.
+double segmentSegmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1);
+
 /// True when segment p->q meets the tet (a, b, c, d) grown by `tolerance` [m].
 bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
                      const Vec3& d, double tolerance);

@@ -9,6 +9,7 @@
 #include <map>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
 
 namespace tissue_cut {
 
@@ -39,6 +40,7 @@ void Cutter::reset() {
   deferred_.clear();
   kept_off_.clear();
   stood_for_.clear();
+  quiet_valid_ = false;
   changed_near_.clear();
   counts_ = CutCounts{};
   stateChanged();
@@ -80,6 +82,7 @@ void Cutter::tissueMoved(double distance) {
   const double d = distance >= 0.0 ? distance : HUGE_VAL;  // NaN: anything may have moved
   moved_ += d;
   gap_tissue_ += d;
+  quiet_moved_ += d;
 }
 
 void Cutter::rebuildGrid() {
@@ -123,6 +126,13 @@ void Cutter::refreshGrid(const ChangeRecord& change) {
   grid_.update(*mesh_, change, &update_refiled_);
   joinNearCache(change.added_tets);
   joinNearCache(update_refiled_);
+  // What the new tets hold near the blade joins the quiet ticks' features.
+  if (quiet_valid_ && !pieces_only_ && !change.added_tets.empty()) {
+    const std::vector<std::pair<int, int>>& cut_edges = refusedEdges();
+    for (int t : change.added_tets)
+      if (mesh_->tetAlive(t) && !isPendingPiece(t)) quietTet(mesh_->tet(t), 0.0, cut_edges);
+    sortQuiet();
+  }
 }
 
 void Cutter::joinNearCache(const std::vector<int>& tets) {
@@ -639,7 +649,12 @@ void Cutter::subdivide(int pid, ChangeRecord* change) {
   if (split.kind == SplitKind::kUntouched) return;
   std::vector<int> ids;
   const std::vector<int> old = p.pieces;
-  if (replace(old, split.tets, change, nullptr, &ids)) setPieces(pid, ids);
+  // The pieces stand in for the pending tet, whose corners, edges and faces a sweep looks at:
+  // nothing new for the quiet ticks' features.
+  pieces_only_ = true;
+  const bool replaced = replace(old, split.tets, change, nullptr, &ids);
+  pieces_only_ = false;
+  if (replaced) setPieces(pid, ids);
   dropUnusedSteiner(&p.steiner, change);
 }
 
@@ -1363,6 +1378,217 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   }
 }
 
+const std::vector<std::pair<int, int>>& Cutter::refusedEdges() {
+  // An edge already cut in a pending tet: coarseAround() refuses a crossing of it, which then
+  // changes nothing, unless an end on a wound makes the crossing stand for that end.
+  std::vector<std::pair<int, int>>& out = quiet_scratch_;
+  out.clear();
+  for (const auto& [pid, p] : pending_)
+    for (int e = 0; e < 6; ++e) {
+      const int a = p.cut.corner[kTetEdge[e][0]], b = p.cut.corner[kTetEdge[e][1]];
+      if (p.cut.edge_point[e] >= 0 && !onWound(a) && !onWound(b))
+        out.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+bool Cutter::snapLooksOnly(int v) const {
+  // trySnap() returns before changing anything: v is on the cut, kept off it where it is now,
+  // or a cut point of the first pending tet around it (which holds until that tet is replaced).
+  if (onCut(v)) return true;
+  const auto kept = kept_off_.find(v);
+  if (kept != kept_off_.end()) return kept->second == mesh_->rest(v);
+  if (!onWound(v)) return false;
+  for (int t : mesh_->vertexTets(v)) {
+    const int pid = pending_of_[t];
+    if (pid >= 0) return localIndex(pending_.at(pid).cut.corner, v) < 0;
+  }
+  return false;
+}
+
+void Cutter::quietTet(const TetVerts& tv, double lower,
+                      const std::vector<std::pair<int, int>>& cut_edges) {
+  const BladeSegment& at = quiet_ref_;
+  const double wide = std::max(snap_distance_, wound_snap_distance_);
+  const double length = (at.tip - at.base).norm();
+  const double near = quiet_reach_ + quiet_slack_;
+  // The widest band of its vertices: the wound's only where one is on a wound.
+  const double band =
+      std::any_of(tv.begin(), tv.end(), [&](int v) { return onWound(v); }) ? wide : snap_distance_;
+  if (!(lower <= near + band)) return;
+  const std::array<Vec3, 4> x{mesh_->current(tv[0]), mesh_->current(tv[1]), mesh_->current(tv[2]),
+                              mesh_->current(tv[3])};
+  // A ball around the tet: its distance from the blade is at least `ball`.
+  const Vec3 centre = 0.25 * (x[0] + x[1] + x[2] + x[3]);
+  double radius2 = 0.0;
+  for (const Vec3& p : x) radius2 = std::max(radius2, (p - centre).squaredNorm());
+  const double radius = std::sqrt(radius2);
+  const double ball = distanceToSegment(centre, at.base, at.tip) - radius;
+  if (!(ball <= near + band)) return;
+  for (int k = 0; k < 4; ++k) {
+    const double own = onWound(tv[k]) ? wide : snap_distance_;
+    const double d = distanceToSegment(x[k], at.base, at.tip);
+    if (d <= own + near && !snapLooksOnly(tv[k])) quiet_verts_.push_back({d - own, tv[k]});
+  }
+  if (ball <= near)
+    for (const auto& e : kTetEdge) {
+      const int a = std::min(tv[e[0]], tv[e[1]]), b = std::max(tv[e[0]], tv[e[1]]);
+      if (onCut(a) || onCut(b) ||
+          std::binary_search(cut_edges.begin(), cut_edges.end(), std::make_pair(a, b)))
+        continue;
+      // A ball around the edge first.
+      const Vec3 &pa = x[e[0]], &pb = x[e[1]];
+      if (!(distanceToSegment(0.5 * (pa + pb), at.base, at.tip) - 0.5 * (pb - pa).norm() <= near))
+        continue;
+      const double d = segmentSegmentDistance(pa, pb, at.base, at.tip);
+      if (d <= near) quiet_edges_.push_back({d, a, b});
+    }
+  // The fronts' paths start at the tip and the base moved along the blade by frontShift() (along
+  // the blade of their tick's end): within the moves since of these points, plus the shift times
+  // the turn of the blade's direction (at most 4 moves over its length).
+  const Vec3 line = (at.tip - at.base) / length;
+  const double front_scale = 1.0 + 4.0 * frontShift() / length;
+  for (int end = 0; end < 2; ++end) {
+    const Vec3 front =
+        end == 0 ? Vec3(at.tip - frontShift() * line) : Vec3(at.base + frontShift() * line);
+    if (!((centre - front).norm() - radius <= near * front_scale)) continue;
+    for (const auto& f : kTetFace) {
+      const double d = pointTriangleDistance(front, x[f[0]], x[f[1]], x[f[2]]) / front_scale;
+      if (d <= near)
+        (end == 0 ? quiet_faces_ : quiet_base_faces_)
+            .push_back({d, sortedFace(tv[f[0]], tv[f[1]], tv[f[2]])});
+    }
+  }
+}
+
+void Cutter::sortQuiet() {
+  auto tidy = [](auto* list) {
+    std::sort(list->begin(), list->end());
+    list->erase(std::unique(list->begin(), list->end()), list->end());
+  };
+  tidy(&quiet_verts_);
+  tidy(&quiet_edges_);
+  tidy(&quiet_faces_);
+  tidy(&quiet_base_faces_);
+}
+
+double Cutter::quietReach(const BladeSegment& at) {
+  // What a sweep acts on (sweep(), trySnap(), crossFront()): a vertex off the cut within the snap
+  // distance of its quad or of the line it came from, or a wound vertex within the wound's band
+  // under its quad, facing it; an edge of a coarse tet crossing the quad, neither end on the cut;
+  // a face of one that the tip's or the base's path crosses, moved along the blade by
+  // frontShift(). Each tick's quad lies within the larger of its blade's end moves of the blade
+  // before it, so within the blade's moves since `at` of `at`, the fronts' paths likewise (the
+  // blade turns a little); the tissue's moves add to that. So until the moves reach the quiet
+  // reach, only the features that close to `at` can be acted on: they are kept, and each tick
+  // tests them as the sweep would (watchedQuiet()), a few instead of all near the blade. Some
+  // only look and change nothing, and are left out (snapLooksOnly(); an edge already cut in a
+  // pending tet with no end on a wound, which coarseAround() refuses). The sweep looks only at
+  // the tets whose boxes meet its quad's box grown by the snap distance: all in the near cache
+  // while the blade's box stays that far inside the cache's; of those, the ones beyond gap_far_
+  // lie further than any band.
+  quiet_verts_.clear();
+  quiet_edges_.clear();
+  quiet_faces_.clear();
+  quiet_base_faces_.clear();
+  if (!closeKept()) return 0.0;
+  const double length = (at.tip - at.base).norm();
+  if (!(length > 2.0 * frontShift())) return 0.0;
+  const double wide = std::max(snap_distance_, wound_snap_distance_);
+  const double moves = gap_blade_ + gap_tissue_;
+  const Vec3 lo = at.base.cwiseMin(at.tip), hi = at.base.cwiseMax(at.tip);
+  const double margin =
+      std::min((lo - near_cache_lo_).minCoeff(), (near_cache_hi_ - hi).minCoeff());
+  const double slack = 1e-3 * mean_edge_ + 1e-6 * length;
+  quiet_slack_ = slack;
+  quiet_reach_ = std::min({options_.quiet_reach * mean_edge_, margin - snap_distance_,
+                           gap_far_ - moves - wide}) -
+                 2.0 * slack;
+  if (!(quiet_reach_ > 0.0)) return 0.0;
+  quiet_ref_ = at;
+  const std::vector<std::pair<int, int>>& cut_edges = refusedEdges();
+  for (const auto& [pid, p] : pending_) quietTet(p.cut.corner, 0.0, cut_edges);
+  for (int i : near_close_) {
+    const int t = near_cache_[i];
+    if (mesh_->tetAlive(t) && !isPendingPiece(t))
+      quietTet(mesh_->tet(t), near_gap_[i] - moves, cut_edges);
+  }
+  sortQuiet();
+  return quiet_reach_;
+}
+
+bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved) const {
+  // The tests sweep(), trySnap() and crossFront() make before they act, on the kept features the
+  // moves have reached (each test a little wider: the sweep's own filters may leave a feature
+  // out, never in). Each triangle's plane first, computed as those tests compute it: a feature
+  // clear of it by their own measure is clear of the test.
+  const double reached = moved + quiet_slack_;
+  const auto tris = sweptTriangles(from, to);
+  const double tiny = 1e-12 * mean_edge_ * mean_edge_;
+  std::array<Vec3, 2> n;
+  std::array<double, 2> len;
+  for (int k = 0; k < 2; ++k) {
+    n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
+    len[k] = n[k].norm();
+  }
+  auto nearPlane = [&](int k, const Vec3& x, double band) {
+    return !(std::abs(n[k].dot(x - tris[k][0])) > band * len[k] * (1.0 + 1e-9));
+  };
+  Vec3 normal = n[0];
+  if (normal.norm() <= tiny) normal = n[1];
+  normal.normalize();
+  for (const QuietVertex& q : quiet_verts_) {
+    if (q.at > reached) break;
+    const int v = q.v;
+    if (onCut(v) || !mesh_->vertexAlive(v)) continue;  // snapped since: only looks
+    const Vec3& x = mesh_->current(v);
+    if ((!onWound(v) && nearTrailingLine(x, tris)) ||
+        (nearPlane(0, x, snap_distance_) && pointNearTriangle(x, tris[0], snap_distance_)) ||
+        (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, tris[1], snap_distance_)))
+      return false;
+    if (onWound(v) &&
+        ((nearPlane(0, x, wound_snap_distance_) &&
+          pointNearTriangle(x, tris[0], wound_snap_distance_)) ||
+         (nearPlane(1, x, wound_snap_distance_) &&
+          pointNearTriangle(x, tris[1], wound_snap_distance_))) &&
+        woundFacing(v, normal))
+      return false;
+  }
+  double s;
+  Vec3 bary;
+  for (const QuietEdge& q : quiet_edges_) {
+    if (q.at > reached) break;
+    if (onCut(q.a) || onCut(q.b) || !mesh_->vertexAlive(q.a) || !mesh_->vertexAlive(q.b)) continue;
+    const Vec3 &pa = mesh_->current(q.a), &pb = mesh_->current(q.b);
+    for (int k = 0; k < 2; ++k) {
+      // Ends strictly on both sides of the plane, or no crossing.
+      const double da = n[k].dot(pa - tris[k][0]), db = n[k].dot(pb - tris[k][0]);
+      if (((da > 0 && db < 0) || (da < 0 && db > 0)) &&
+          segmentCrossesTriangle(pa, pb, tris[k], 1e-9, &s, &bary))
+        return false;
+    }
+  }
+  // crossFront()'s two paths this tick, each moved along the blade toward the other end.
+  auto crossed = [&](const std::vector<QuietFace>& faces, const Vec3& from_end, const Vec3& to_end,
+                     const Vec3& inward) {
+    const Vec3 shift = inward.norm() > 0 ? Vec3(frontShift() * inward.normalized()) : Vec3::Zero();
+    const Vec3 p = from_end + shift, q = to_end + shift;
+    for (const QuietFace& face : faces) {
+      if (face.at > reached) break;
+      const auto& f = face.f;
+      if (!mesh_->vertexAlive(f[0]) || !mesh_->vertexAlive(f[1]) || !mesh_->vertexAlive(f[2]))
+        continue;
+      const Triangle tri{mesh_->current(f[0]), mesh_->current(f[1]), mesh_->current(f[2])};
+      // crossFront() may take the face the other way round: rounding may differ there.
+      if (segmentCrossesTriangle(p, q, tri, 2e-9, &s, &bary)) return true;
+    }
+    return false;
+  };
+  return !crossed(quiet_faces_, from.tip, to.tip, to.base - to.tip) &&
+         !crossed(quiet_base_faces_, from.base, to.base, to.tip - to.base);
+}
+
 void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const Vec3& inward,
                         ChangeRecord* change) {
   // A front running exactly along mesh faces or through edges (a tip at the depth of a grid
@@ -1495,6 +1721,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
       joinNearCache(refiled_);
     }
   }
+  bool swept = false, quiet = false;  // the blade moves on in its stroke; unswept
   auto endStroke = [&] {
     crossFront({{previous_->base, previous_->tip}}, last_motion_, change);
     finalizeLeft(std::nullopt, change, true);
@@ -1520,20 +1747,57 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     crossFront({{blade->base, blade->tip}}, Vec3::Zero(), change);
     stroke_start_ = true;
   } else {
+    swept = true;
+    // A quiet tick (see CutterOptions::skip_quiet) is not swept; the sweep's bounds still count
+    // the blade's move (see sweepQuery()), and the next sweep starts where it left the blade.
+    const double step =
+        std::max((blade->base - previous_->base).norm(), (blade->tip - previous_->tip).norm());
+    quiet = options_.skip_quiet && quiet_valid_ && told_motion_ && !stroke_start_ &&
+            quiet_moved_ + step < quiet_reach_ &&
+            watchedQuiet(*previous_, *blade, quiet_moved_ + step);
+    quiet_moved_ += step;
+    if (quiet) {
+      ++counts_.quiet_ticks;
+      if (!options_.check_quiet) {
+        gap_blade_ += step;
+        gap_last_ = *blade;
+      }
+    }
+    // What a sweep may change, to check that a quiet tick's would have changed none of it.
+    const bool check = quiet && options_.check_quiet;
+    const int slots = mesh_->vertexSlots();
+    const std::size_t pending = pending_.size(), kept = kept_off_.size(), stood = stood_for_.size();
+    const std::vector<unsigned char> flags = check ? wound_flag_ : std::vector<unsigned char>{};
     // Sweep and fronts only add points and mark tets pending; no tet is replaced until
     // finalizeLeft(), so the fronts may reuse the sweep's search.
-    sweep(*previous_, *blade, change);
+    if (!quiet || check) sweep(*previous_, *blade, change);
     const Vec3 motion = 0.5 * ((blade->base - previous_->base) + (blade->tip - previous_->tip));
     if (motion.norm() > 1e-9 * mean_edge_) last_motion_ = motion;
     const auto tris = sweptTriangles(*previous_, *blade);
     if (triangleArea(tris[0]) + triangleArea(tris[1]) > 1e-12 * mean_edge_ * mean_edge_)
       stroke_start_ = false;
-    crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
-    crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
+    if (!quiet || check) {
+      crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
+      crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
+    }
     swept_valid_ = false;
+    if (check && (mesh_->vertexSlots() != slots || pending_.size() != pending ||
+                  kept_off_.size() != kept || stood_for_.size() != stood || wound_flag_ != flags))
+      throw std::logic_error("Cutter: the sweep of a tick left unswept as quiet changed the cut");
   }
   previous_ = blade;
   finalizeLeft(blade, change);
+  // After a tick swept because the quiet reach ran out (or was not known), the features near
+  // the blade are taken anew; one swept for a kept feature keeps them while half the reach is
+  // left (the cut's state changed, which only makes features inert; tets a change adds joined
+  // them). A lift or a new stroke looks afresh.
+  if (swept && !quiet && options_.skip_quiet &&
+      !(quiet_valid_ && quiet_moved_ < 0.5 * quiet_reach_)) {
+    quiet_valid_ = quietReach(*blade) > 0.0;
+    quiet_moved_ = 0.0;
+  } else if (!swept) {
+    quiet_valid_ = false;
+  }
   if (!refusal_.empty())
     warning += std::string(warning.empty() ? "" : "; ") +
                "a replacement was refused and the cut left closed there (" + refusal_ + ")";

@@ -39,6 +39,23 @@ bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const Triangle& t, dou
   return true;
 }
 
+double segmentSegmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+  // The squared distance between the points at parameters s and t is convex in (s, t): where the
+  // lines' nearest points lie inside both segments they are the segments' too; else the nearest
+  // points lie at an end of one segment. Nearly parallel segments, whose lines' nearest points
+  // are ill-defined, take the ends.
+  const Vec3 u = p1 - p0, v = q1 - q0, w = p0 - q0;
+  const Vec3 n = u.cross(v);
+  const double nn = n.squaredNorm();
+  if (nn > 1e-24 * u.squaredNorm() * v.squaredNorm()) {
+    // Line parameters of the nearest points (Cramer's rule on the normal equations).
+    const double s = v.cross(w).dot(n) / nn, t = u.cross(w).dot(n) / nn;
+    if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) return std::abs(w.dot(n)) / std::sqrt(nn);
+  }
+  return std::min({distanceToSegment(p0, q0, q1), distanceToSegment(p1, q0, q1),
+                   distanceToSegment(q0, p0, p1), distanceToSegment(q1, p0, p1)});
+}
+
 bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance) {
   const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
   const double len = n.norm();
