@@ -315,7 +315,8 @@ class Cutter {
   std::vector<QuietEdge> quiet_edges_;
   std::vector<QuietFace> quiet_faces_, quiet_base_faces_;  // near the tip's path, the base's
   std::vector<std::pair<int, int>> quiet_scratch_;
-  double quiet_slack_ = 0.0;  // rounding room of the distances above
+  double quiet_slack_ = 0.0;     // rounding room of the distances above
+  bool quiet_unsorted_ = false;  // features joined since they were sorted
   /// Sorts the kept features (and drops repeats).
   void sortQuiet();
   bool pieces_only_ = false;  // the change being made replaces a pending tet's pieces

@@ -126,12 +126,14 @@ void Cutter::refreshGrid(const ChangeRecord& change) {
   grid_.update(*mesh_, change, &update_refiled_);
   joinNearCache(change.added_tets);
   joinNearCache(update_refiled_);
-  // What the new tets hold near the blade joins the quiet ticks' features.
+  // What the new tets hold near the blade joins the quiet ticks' features (every edge of theirs:
+  // the ones a crossing of which changes nothing are too few there to look for), sorted before
+  // the next tick looks at them.
   if (quiet_valid_ && !pieces_only_ && !change.added_tets.empty()) {
-    const std::vector<std::pair<int, int>>& cut_edges = refusedEdges();
+    quiet_scratch_.clear();
     for (int t : change.added_tets)
-      if (mesh_->tetAlive(t) && !isPendingPiece(t)) quietTet(mesh_->tet(t), 0.0, cut_edges);
-    sortQuiet();
+      if (mesh_->tetAlive(t) && !isPendingPiece(t)) quietTet(mesh_->tet(t), 0.0, quiet_scratch_);
+    quiet_unsorted_ = true;
   }
 }
 
@@ -1463,6 +1465,7 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
 }
 
 void Cutter::sortQuiet() {
+  quiet_unsorted_ = false;
   auto tidy = [](auto* list) {
     std::sort(list->begin(), list->end());
     list->erase(std::unique(list->begin(), list->end()), list->end());
@@ -1752,6 +1755,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     // the blade's move (see sweepQuery()), and the next sweep starts where it left the blade.
     const double step =
         std::max((blade->base - previous_->base).norm(), (blade->tip - previous_->tip).norm());
+    if (quiet_unsorted_) sortQuiet();
     quiet = options_.skip_quiet && quiet_valid_ && told_motion_ && !stroke_start_ &&
             quiet_moved_ + step < quiet_reach_ &&
             watchedQuiet(*previous_, *blade, quiet_moved_ + step);
