@@ -130,9 +130,9 @@ void Cutter::refreshGrid(const ChangeRecord& change) {
   // the ones a crossing of which changes nothing are too few there to look for), sorted before
   // the next tick looks at them.
   if (quiet_valid_ && !pieces_only_ && !change.added_tets.empty()) {
-    quiet_scratch_.clear();
+    static const std::vector<std::pair<int, int>> none;
     for (int t : change.added_tets)
-      if (mesh_->tetAlive(t) && !isPendingPiece(t)) quietTet(mesh_->tet(t), 0.0, quiet_scratch_);
+      if (mesh_->tetAlive(t) && !isPendingPiece(t)) quietTet(mesh_->tet(t), 0.0, none);
     quiet_unsorted_ = true;
   }
 }
