@@ -18,6 +18,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
@@ -294,22 +295,17 @@ class Cutter {
   struct QuietVertex {
     double at;
     int v;
-    bool operator<(const QuietVertex& o) const { return at < o.at || (at == o.at && v < o.v); }
-    bool operator==(const QuietVertex& o) const { return at == o.at && v == o.v; }
+    auto key() const { return std::tie(at, v); }
   };
   struct QuietEdge {
     double at;
     int a, b;  // a < b
-    bool operator<(const QuietEdge& o) const {
-      return at < o.at || (at == o.at && (a < o.a || (a == o.a && b < o.b)));
-    }
-    bool operator==(const QuietEdge& o) const { return at == o.at && a == o.a && b == o.b; }
+    auto key() const { return std::tie(at, a, b); }
   };
   struct QuietFace {
     double at;
     std::array<int, 3> f;  // sorted
-    bool operator<(const QuietFace& o) const { return at < o.at || (at == o.at && f < o.f); }
-    bool operator==(const QuietFace& o) const { return at == o.at && f == o.f; }
+    auto key() const { return std::tie(at, f); }
   };
   std::vector<QuietVertex> quiet_verts_;
   std::vector<QuietEdge> quiet_edges_;

@@ -10,6 +10,7 @@
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 namespace tissue_cut {
 
@@ -1467,8 +1468,12 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
 void Cutter::sortQuiet() {
   quiet_unsorted_ = false;
   auto tidy = [](auto* list) {
-    std::sort(list->begin(), list->end());
-    list->erase(std::unique(list->begin(), list->end()), list->end());
+    using Item = typename std::decay_t<decltype(*list)>::value_type;
+    std::sort(list->begin(), list->end(),
+              [](const Item& x, const Item& y) { return x.key() < y.key(); });
+    list->erase(std::unique(list->begin(), list->end(),
+                            [](const Item& x, const Item& y) { return x.key() == y.key(); }),
+                list->end());
   };
   tidy(&quiet_verts_);
   tidy(&quiet_edges_);
