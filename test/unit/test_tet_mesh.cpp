@@ -7,6 +7,7 @@
 #include <string>
 
 #include "tissue_cut/mesh/block.hpp"
+#include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 
 using namespace tissue_cut;
@@ -66,6 +67,20 @@ void expectSameMesh(const TetMesh& a, const TetMesh& b, const std::string& what)
   for (int u = 0; u < a.vertexSlots(); ++u)
     ASSERT_EQ(a.vertexTets(u), b.vertexTets(u)) << what << ", vertex " << u;
   ASSERT_EQ(a.numBoundaryFaces(), b.numBoundaryFaces()) << what;
+}
+
+// Every live tet's kept rest Q is its Q measured now, to the bit.
+void expectKeptQuality(const TetMesh& mesh, const std::string& what) {
+  int wrong = 0;
+  for (int t = 0; t < mesh.tetSlots(); ++t) {
+    if (!mesh.tetAlive(t)) continue;
+    const TetVerts& tv = mesh.tet(t);
+    const double q =
+        tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
+    if (mesh.restQuality(t) != q && ++wrong <= 3)
+      ADD_FAILURE() << what << ": tet " << t << " keeps " << mesh.restQuality(t) << ", has " << q;
+  }
+  EXPECT_EQ(wrong, 0) << what;
 }
 
 }  // namespace
@@ -501,4 +516,52 @@ TEST(TetMesh, HasEdgeAnswersAsTheEdgesStar) {
   EXPECT_EQ(edges, 2 * static_cast<int>(mesh.edges().size()));
   EXPECT_LT(edges, pairs);
   EXPECT_FALSE(mesh.hasEdge(a0, b0));  // bisected: gone
+}
+
+// The remeshers read a tet's rest Q from the mesh, which measures it when the tet is made and
+// when a vertex of it moves: every kind of change must leave it right.
+TEST(TetMesh, KeepsEachTetsRestQualityThroughEveryChange) {
+  std::mt19937 rng(5);
+  TetMesh mesh = bisectedBlock(&rng);  // replacements into freed and new slots
+  expectKeptQuality(mesh, "bisected");
+  int moves = 0, renames = 0, merges = 0;
+  for (int k = 0; k < 60; ++k) {
+    const auto edges = mesh.edges();
+    const auto [v, w] = edges[rng() % edges.size()];
+    switch (k % 3) {
+      case 0:  // a smoothing move of v a fifth of the way to w (refused where a tet would flip)
+        try {
+          mesh.moveVertex(v, {{v, 0.8}, {w, 0.2}}, nullptr);
+          ++moves;
+        } catch (const std::logic_error&) {
+        }
+        expectKeptQuality(mesh, "moving " + std::to_string(v));
+        break;
+      case 1: {  // v's tets handed to a copy a tenth of the way to w: the copy's rest differs
+        const int copy = mesh.addVertex({{v, 0.9}, {w, 0.1}}, nullptr);
+        try {
+          mesh.renameVertex(mesh.vertexTets(v), v, copy, nullptr);
+          mesh.removeVertex(v, nullptr);
+          ++renames;
+        } catch (const std::logic_error&) {
+          mesh.removeVertex(copy, nullptr);
+        }
+        expectKeptQuality(mesh, "renaming " + std::to_string(v));
+        break;
+      }
+      default:  // a collapse of v onto w
+        try {
+          mesh.mergeVertices(v, w, nullptr);
+          ++merges;
+        } catch (const std::logic_error&) {
+        }
+        expectKeptQuality(mesh, "merging " + std::to_string(v));
+    }
+    if (HasFailure()) return;
+  }
+  // Each kind of change happened (the seed is fixed; the counts only guard the test's reach).
+  EXPECT_GT(moves, 5);
+  EXPECT_GT(renames, 5);
+  EXPECT_GT(merges, 5);
+  EXPECT_EQ(mesh.validate(), "");
 }

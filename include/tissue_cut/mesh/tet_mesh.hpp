@@ -174,6 +174,9 @@ class TetMesh {
   // --- measures of one tet
   double restVolume(int t) const;
   double currentVolume(int t) const;
+  /// Q of tet t in rest positions (tetQuality()), kept with the tet: rest positions change only
+  /// through this class, and the remeshers ask for the same tets' Q tens of thousands of times.
+  double restQuality(int t) const { return rest_quality_[t]; }
   /// Total rest / current volume of live tets [m^3].
   double restVolume() const;
   double currentVolume() const;
@@ -210,10 +213,10 @@ class TetMesh {
   /// Geometry of the survivor is unchanged.
   void mergeVertices(int removed, int survivor, ChangeRecord* record);
 
-  /// Checks the invariants: live vertices of every tet, positive rest volume, incidence,
-  /// symmetric adjacency with opposite orientation across each interior face, no face in more than
-  /// two tets, a closed consistently oriented 2-manifold boundary, no isolated vertex. Returns ""
-  /// when valid, else the first violation in words.
+  /// Checks the invariants: live vertices of every tet, positive rest volume, the kept rest Q,
+  /// incidence, symmetric adjacency with opposite orientation across each interior face, no face in
+  /// more than two tets, a closed consistently oriented 2-manifold boundary, no isolated vertex.
+  /// Returns "" when valid, else the first violation in words.
   std::string validate() const;
 
  private:
@@ -226,11 +229,14 @@ class TetMesh {
   void restack(const std::vector<int>& star, int v, int copy, ChangeRecord* record);
   int allocateTet();
   int allocateVertex();
+  // Measures the rest Q of the tet now in slot t.
+  void measureTet(int t);
 
   std::vector<Vec3> rest_, current_, velocity_;
   std::vector<unsigned char> vertex_alive_;
   std::vector<std::vector<int>> vertex_tets_;
   std::vector<TetVerts> tets_;
+  std::vector<double> rest_quality_;  // per tet slot; restQuality()
   std::vector<std::array<int, 4>> neighbors_;
   std::vector<unsigned char> tet_alive_;
   std::vector<int> free_tets_;

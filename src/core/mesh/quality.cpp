@@ -58,10 +58,7 @@ double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   return std::min(1.0, quality);
 }
 
-double restQuality(const TetMesh& mesh, int t) {
-  const TetVerts& v = mesh.tet(t);
-  return tetQuality(mesh.rest(v[0]), mesh.rest(v[1]), mesh.rest(v[2]), mesh.rest(v[3]));
-}
+double restQuality(const TetMesh& mesh, int t) { return mesh.restQuality(t); }
 
 double currentQuality(const TetMesh& mesh, int t) {
   const TetVerts& v = mesh.tet(t);

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "tissue_cut/mesh/quality.hpp"
+
 namespace tissue_cut {
 
 namespace {
@@ -165,6 +167,7 @@ TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
 
   const int nt = static_cast<int>(T.rows());
   assignSlots(&tets_, nt);
+  assignSlots(&rest_quality_, nt, 0.0);
   assignSlots(&neighbors_, nt, {-1, -1, -1, -1});
   assignSlots(&tet_alive_, nt, static_cast<unsigned char>(1));
   num_tets_ = nt;
@@ -185,6 +188,7 @@ TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
       ++reoriented_;
     }
     tets_[t] = tv;
+    measureTet(t);
     for (int v : tv) vertex_tets_[v].push_back(t);
   }
   // Match faces globally once; later changes match locally.
@@ -322,6 +326,7 @@ int TetMesh::allocateTet() {
     return t;
   }
   tets_.emplace_back();
+  rest_quality_.push_back(0.0);
   neighbors_.push_back({-1, -1, -1, -1});
   tet_alive_.push_back(0);
   return tetSlots() - 1;
@@ -357,6 +362,11 @@ void TetMesh::removeVertex(int v, ChangeRecord* record) {
   vertex_alive_[v] = 0;
   --num_vertices_;
   if (record) record->removed_vertices.push_back(v);
+}
+
+void TetMesh::measureTet(int t) {
+  const TetVerts& tv = tets_[t];
+  rest_quality_[t] = tetQuality(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]);
 }
 
 void TetMesh::linkTet(int t) {
@@ -456,6 +466,7 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
   for (const TetVerts& tv : add) {
     int t = allocateTet();
     tets_[t] = tv;
+    measureTet(t);
     tet_alive_[t] = 1;
     ++num_tets_;
     linkTet(t);
@@ -582,6 +593,7 @@ void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecor
   if (copy != v) verts.push_back(copy);
   for (int i = 0; i < n; ++i) {
     tets_[star[n - 1 - i]] = move_tets_[i];
+    measureTet(star[n - 1 - i]);  // a moved v moves its star (moveVertex)
     neighbors_[star[n - 1 - i]] = move_neighbors_[i];
   }
   // Each vertex of the star: its other tets in order, then the star's slots in the order taken.
@@ -645,6 +657,11 @@ std::string TetMesh::validate() const {
     const double vol = restVolume(t);
     if (!(vol > 0)) {
       err << tetName(t) << " has non-positive rest volume " << vol;
+      return err.str();
+    }
+    const double q = tetQuality(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]);
+    if (rest_quality_[t] != q) {
+      err << tetName(t) << " keeps rest quality " << rest_quality_[t] << " where it has " << q;
       return err.str();
     }
     for (int f = 0; f < 4; ++f) {
