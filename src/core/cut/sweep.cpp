@@ -93,26 +93,22 @@ double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4
       z = std::max(z, u.dot(q));
     }
     gap = std::max({gap, a - len, -z});
-    // Perpendicular to the segment, which projects to the single value 0 there.
+    // Perpendicular to the segment, which projects to the single value 0 there. Only a positive
+    // gap counts (the answer is never below 0): an axis is scaled to unit length only when its
+    // gap is.
     const Vec3 c = 0.25 * (p[0] + p[1] + p[2] + p[3]);
-    Vec3 w = c - u.dot(c) * u;
-    const double wl = w.norm();
-    if (wl > 0) {
-      w /= wl;
-      double m = HUGE_VAL;
-      for (const Vec3& q : p) m = std::min(m, w.dot(q));
-      gap = std::max(gap, m);
-    }
+    const Vec3 w = c - u.dot(c) * u;
+    double m = HUGE_VAL;
+    for (const Vec3& q : p) m = std::min(m, w.dot(q));
+    if (m > 0) gap = std::max(gap, m / w.norm());
   }
   // Each face's outward normal: the segment's nearer end beyond the face's plane.
   for (int f = 0; f < 4; ++f) {
     const Vec3& a = p[kTetFace[f][0]];
     Vec3 n = (p[kTetFace[f][1]] - a).cross(p[kTetFace[f][2]] - a);
-    const double nl = n.norm();
-    if (!(nl > 0)) continue;
-    n /= nl;
     if (n.dot(p[f] - a) > 0) n = -n;  // face f is the one opposite corner f
-    gap = std::max(gap, std::min(n.dot(-a), n.dot(d - a)));
+    const double g = std::min(n.dot(-a), n.dot(d - a));
+    if (g > 0) gap = std::max(gap, g / n.norm());  // a flat face (n = 0) gives no gap
   }
   return gap > 0 ? gap : 0.0;
 }
