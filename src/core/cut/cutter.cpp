@@ -132,6 +132,7 @@ void Cutter::refreshGrid(const ChangeRecord& change) {
   // the next tick looks at them.
   if (quiet_valid_ && !pieces_only_ && !change.added_tets.empty()) {
     static const std::vector<std::pair<int, int>> none;
+    newQuietBatch();
     for (int t : change.added_tets)
       if (mesh_->tetAlive(t) && !isPendingPiece(t)) quietTet(mesh_->tet(t), 0.0, none);
     quiet_unsorted_ = true;
@@ -1429,7 +1430,11 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   const double radius = std::sqrt(radius2);
   const double ball = distanceToSegment(centre, at.base, at.tip) - radius;
   if (!(ball <= near + band)) return;
+  // Each vertex once a batch (it is in ~20 of these tets): what it gives does not depend on
+  // the tet.
   for (int k = 0; k < 4; ++k) {
+    if (quiet_seen_[tv[k]] == quiet_batch_) continue;
+    quiet_seen_[tv[k]] = quiet_batch_;
     const double own = onWound(tv[k]) ? wide : snap_distance_;
     const double d = distanceToSegment(x[k], at.base, at.tip);
     if (d <= own + near && !snapLooksOnly(tv[k])) quiet_verts_.push_back({d - own, tv[k]});
@@ -1464,6 +1469,8 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
     }
   }
 }
+
+void Cutter::newQuietBatch() { nextStamp(&quiet_seen_, &quiet_batch_, mesh_->vertexSlots()); }
 
 void Cutter::sortQuiet() {
   quiet_unsorted_ = false;
@@ -1516,6 +1523,7 @@ double Cutter::quietReach(const BladeSegment& at) {
   if (!(quiet_reach_ > 0.0)) return 0.0;
   quiet_ref_ = at;
   const std::vector<std::pair<int, int>>& cut_edges = refusedEdges();
+  newQuietBatch();
   for (const auto& [pid, p] : pending_) quietTet(p.cut.corner, 0.0, cut_edges);
   for (int i : near_close_) {
     const int t = near_cache_[i];
