@@ -413,7 +413,9 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
       queueTet(e.tet);
       continue;
     }
-    if (std::any_of(e.verts.begin(), e.verts.end(), busy)) {
+    // (busy through a reference: std::any_of takes its predicate by value, and a std::function
+    // copy per entry cost more than the test.)
+    if (std::any_of(e.verts.begin(), e.verts.end(), [&](int v) { return busy(v); })) {
       waiting_.push_back(e);
       continue;
     }
