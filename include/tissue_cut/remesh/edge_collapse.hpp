@@ -17,7 +17,9 @@ struct CollapseCheck {
   /// when refused before the quality test (any refusal but kQuality).
   double worst_before = 0.0;
   /// Worst rest Q over the tets of that star that live on with `survivor` in place of `removed`
-  /// (1 when none does); 0 when refused before it was known (kBoundary, kLink, kInversion).
+  /// (1 when none does); 0 when refused before it was known (kBoundary, kLink, kInversion). For
+  /// kQuality the tets are measured only until one falls below worst_before: the lowest Q met
+  /// up to it (below worst_before; the worst over all of them may be lower still).
   double worst_after = 0.0;
   /// Rest volume the star would gain (negative: lose) [m^3]; 0 when refused before it was known.
   double volume_change = 0.0;

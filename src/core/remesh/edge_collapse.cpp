@@ -112,21 +112,13 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
       check.worst_after = 0.0;  // a flattened tet has Q = 0
       return check;
     }
-  check.worst_after = 1.0;
   double volume_before = 0.0, volume_after = 0.0;
   for (int t : star) volume_before += mesh.restVolume(t);
-  for (int t : star) {
-    if (!moved(t, &tv)) continue;
-    check.worst_after = std::min(check.worst_after, tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]),
-                                                               mesh.rest(tv[2]), mesh.rest(tv[3])));
-    volume_after +=
-        signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
-  }
+  for (int t : star)
+    if (moved(t, &tv))
+      volume_after +=
+          signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
   check.volume_change = volume_after - volume_before;
-  if (!frontKept(mesh, check.removed, check.survivor, shape_tolerance, length_floor)) {
-    check.refusal = CollapseRefusal::kBoundary;
-    return check;
-  }
   if (shape_tolerance <= 0.0) {
     // Inside the body the star keeps its volume exactly; a change means the moved vertex was on
     // a curved or creased part of the boundary (a corner, the crack's rim) and the shape would
@@ -140,11 +132,26 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
     check.refusal = CollapseRefusal::kBoundary;
     return check;
   }
-  // The star's quality before is needed for this test only (most checks stop earlier, at an
-  // inversion).
+  // The crack fronts after the faces (the same refusal; the fronts cost more to find).
+  if (!frontKept(mesh, check.removed, check.survivor, shape_tolerance, length_floor)) {
+    check.refusal = CollapseRefusal::kBoundary;
+    return check;
+  }
+  // The qualities are needed for this last test only (most checks stop earlier, at an inversion
+  // or at the boundary): the star's before (kept by the mesh), then each moved tet's until one
+  // falls below that worst, which decides the refusal.
   check.worst_before = 1.0;
   for (int t : star) check.worst_before = std::min(check.worst_before, restQuality(mesh, t));
-  if (check.worst_after < check.worst_before) check.refusal = CollapseRefusal::kQuality;
+  check.worst_after = 1.0;
+  for (int t : star) {
+    if (!moved(t, &tv)) continue;
+    check.worst_after = std::min(check.worst_after, tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]),
+                                                               mesh.rest(tv[2]), mesh.rest(tv[3])));
+    if (check.worst_after < check.worst_before) {
+      check.refusal = CollapseRefusal::kQuality;
+      return check;
+    }
+  }
   return check;
 }
 
