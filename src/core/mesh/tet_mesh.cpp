@@ -602,9 +602,10 @@ void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecor
   for (int w : verts) {
     std::vector<int>& list = vertex_tets_[w];
     list.erase(std::remove_if(list.begin(), list.end(), inStar), list.end());
-    for (int i = 0; i < n; ++i)
-      if (contains(move_tets_[i], w)) list.push_back(star[n - 1 - i]);
   }
+  // In the order taken: each list gets its slots in increasing i, as a scan per vertex would.
+  for (int i = 0; i < n; ++i)
+    for (int w : move_tets_[i]) vertex_tets_[w].push_back(star[n - 1 - i]);
   if (record) {
     record->removed_tets.insert(record->removed_tets.end(), star.begin(), star.end());
     for (int i = 0; i < n; ++i) {
