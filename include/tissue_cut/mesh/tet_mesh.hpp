@@ -114,7 +114,8 @@ struct ChangeRecord {
   void append(const ChangeRecord& later);
   /// The same, scanning the lists while |later.removed_tets| times |added_tets| (and |later's
   /// added| times |later's removed|) stays within scan_limit, hashing above: append() takes
-  /// 65536; both ways give the same record (a test composes with 0 and with no limit).
+  /// 65536; both ways give the same record (a test composes with 0 and with no limit). Within
+  /// the limit, more than 256 pairs are not scanned: the added slots' places are noted first.
   void append(const ChangeRecord& later, std::size_t scan_limit);
 };
 

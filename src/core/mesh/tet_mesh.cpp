@@ -65,6 +65,11 @@ bool ChangeRecord::empty() const {
 
 void ChangeRecord::append(const ChangeRecord& later) { append(later, std::size_t{1} << 16); }
 
+namespace {
+// Above this many comparisons append() notes the added slots' places instead of scanning.
+constexpr std::size_t kScanAtMost = 256;
+}  // namespace
+
 void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   // Compose into one net change: a tet or vertex added here and removed later never existed for
   // the consumers, and a tet continuing one of those continues what that one continued. Most
@@ -75,13 +80,32 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   std::unordered_map<int, std::size_t> added_at;
   if (!scan_added)
     for (std::size_t i = 0; i < n_added; ++i) added_at[added_tets[i]] = i;
+  // Where the scan would be long (a tick's record of a few hundred tets, a collapse's dozen
+  // removed, most of them not added here: ~3,000 comparisons each), each added slot's last place
+  // is noted by a stamp per slot instead: the place the scan from the end would find.
+  thread_local std::vector<unsigned> noted;
+  thread_local std::vector<std::size_t> noted_at;
+  thread_local unsigned note = 0;
+  const bool index_added = scan_added && later.removed_tets.size() * n_added > kScanAtMost;
+  if (index_added) {
+    int slots = 0;
+    for (int t : added_tets) slots = std::max(slots, t + 1);
+    nextStamp(&noted, &note, slots);
+    growSlots(&noted_at, slots, std::size_t{0});
+    for (std::size_t i = 0; i < n_added; ++i) {
+      noted[added_tets[i]] = note;
+      noted_at[added_tets[i]] = i;
+    }
+  }
   // later's removed slots and what each continued, in later.removed_tets' order
   std::vector<std::pair<int, int>> origin;
   origin.reserve(later.removed_tets.size());
   std::vector<char> cancelled;
   for (int t : later.removed_tets) {
     std::size_t i = n_added;
-    if (scan_added) {
+    if (index_added) {
+      if (t >= 0 && static_cast<std::size_t>(t) < noted.size() && noted[t] == note) i = noted_at[t];
+    } else if (scan_added) {
       for (std::size_t k = n_added; k-- > 0;)
         if (added_tets[k] == t) {
           i = k;
