@@ -275,6 +275,9 @@ class MassSpring {
   std::vector<int> follow_vertices_;              // follow()'s scratch, kept for its capacity
   std::vector<std::pair<int, int>> follow_edges_;
   std::vector<double> edge_volumes_;  // updateMassesAndSprings()' scratch
+  std::vector<unsigned> edge_seen_;   // its stamps: the far ends of one vertex's edges
+  unsigned edge_stamp_ = 0;
+  std::vector<std::size_t> edge_at_;   // the place in its edges of each far end stamped
   std::vector<unsigned> follow_seen_;  // follow()'s stamps: each vertex once
   unsigned follow_stamp_ = 0;
   std::vector<int> follow_place_;             // a vertex's place among follow()'s vertices

@@ -242,25 +242,28 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
   // vertex, summed in the order of its tets (reading the lower end's tets again for every edge,
   // and each tet's rest volume again for every edge and vertex on it, had cost follow() more than
   // its records' work).
+  // v's edges are found through their far ends, each noted with its place by a stamp (a scan of
+  // v's edges for every vertex of every tet had cost as much again).
   std::vector<double>& volume = edge_volumes_;
   volume.assign(edges.size(), 0.0);
+  const std::size_t slots = mesh_->vertexSlots();
+  growSlots(&edge_at_, slots, std::size_t{0});
   std::size_t first = 0;  // the first of v's edges in `edges`
   for (int v : vertices) {
     std::size_t last = first;
     while (last < edges.size() && edges[last].first == v) ++last;
+    nextStamp(&edge_seen_, &edge_stamp_, slots);
+    for (std::size_t e = first; e < last; ++e) {
+      edge_seen_[edges[e].second] = edge_stamp_;
+      edge_at_[edges[e].second] = e;
+    }
     double m = 0.0;
     if (mesh_->vertexAlive(v))
       for (int t : mesh_->vertexTets(v)) {
         const double tet_volume = tet_volume_[t];
         m += params_.density * tet_volume / 4.0;
-        for (int u : mesh_->tet(t)) {
-          if (u <= v) continue;
-          for (std::size_t e = first; e < last; ++e)
-            if (edges[e].second == u) {
-              volume[e] += tet_volume;
-              break;
-            }
-        }
+        for (int u : mesh_->tet(t))
+          if (u > v && edge_seen_[u] == edge_stamp_) volume[edge_at_[u]] += tet_volume;
       }
     mass_[v] = m;
     first = last;
