@@ -195,8 +195,8 @@ TEST(TetMesh, MergingTheBisectionPointBackRestoresTheMesh) {
 // unchanged since the start, and an added tet continues a removed tet of the start or is new.
 // Bisections, their undoing and vertex moves (whose tets continue the ones they replace), a few
 // or a couple of hundred, appended one by one, or in two halves composed apart and then
-// appended; by hashing the lists, by scanning them, or by scanning the short ones and noting the
-// added tets' places for the long ones (append's scan limit 0, 256 or none): all give the same
+// appended; by noting the slots' places first, by scanning the short lists and noting for the
+// long ones, or by scanning them all (append's scan limit 0, 256 or none): all give the same
 // record.
 TEST(TetMesh, AppendedRecordsGiveTheNetChange) {
   for (const int operations : {7, 200}) {

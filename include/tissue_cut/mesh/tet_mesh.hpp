@@ -113,9 +113,9 @@ struct ChangeRecord {
   /// and removed again within the two vanishes from both lists.
   void append(const ChangeRecord& later);
   /// The same, scanning the lists while |later.removed_tets| times |added_tets| (and |later's
-  /// added| times |later's removed|) stays within scan_limit, hashing above: append() takes
-  /// 65536; both ways give the same record (a test composes with 0 and with no limit). Within
-  /// the limit, more than 256 pairs are not scanned: the added slots' places are noted first.
+  /// added| times |later's removed|) stays within scan_limit, and above it noting each slot's
+  /// place (or origin) first by a stamp per slot: append() takes 256; both ways give the same
+  /// record (a test composes with 0, 256 and no limit).
   void append(const ChangeRecord& later, std::size_t scan_limit);
 };
 

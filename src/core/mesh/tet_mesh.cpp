@@ -63,39 +63,51 @@ bool ChangeRecord::empty() const {
          removed_vertices.empty();
 }
 
-void ChangeRecord::append(const ChangeRecord& later) { append(later, std::size_t{1} << 16); }
+void ChangeRecord::append(const ChangeRecord& later) { append(later, 256); }
 
 namespace {
-// Above this many comparisons append() notes the added slots' places instead of scanning.
-constexpr std::size_t kScanAtMost = 256;
+
+// append()'s notes per tet slot: which pass noted a slot, and what (a place, or an origin).
+struct SlotNotes {
+  std::vector<unsigned> stamp;
+  std::vector<long long> value;
+  unsigned pass = 0;
+
+  // A new pass over the slots of `tets`.
+  template <class Slots>
+  void begin(const Slots& tets) {
+    int slots = 0;
+    for (const auto& t : tets) slots = std::max(slots, slotOf(t) + 1);
+    nextStamp(&stamp, &pass, slots);
+    growSlots(&value, slots, 0LL);
+  }
+  bool noted(int t) const {
+    return t >= 0 && static_cast<std::size_t>(t) < stamp.size() && stamp[t] == pass;
+  }
+  void note(int t, long long v) {
+    stamp[t] = pass;
+    value[t] = v;
+  }
+  static int slotOf(int t) { return t; }
+  static int slotOf(const std::pair<int, int>& e) { return e.first; }
+};
+
 }  // namespace
 
 void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   // Compose into one net change: a tet or vertex added here and removed later never existed for
   // the consumers, and a tet continuing one of those continues what that one continued. Most
   // records composed are small next to a tick's (one collapse, flip or move appended to what the
-  // tick did so far): then the lists are scanned; larger ones go through hash maps.
+  // tick did so far): short lists are scanned; for longer ones (a tick's record of hundreds of
+  // tets against a collapse's dozen removed, most of them not added here) each slot's place is
+  // noted first by a stamp per slot (thread-local, kept between calls).
+  thread_local SlotNotes notes;
   const std::size_t n_added = added_tets.size();
   const bool scan_added = later.removed_tets.size() * n_added <= scan_limit;
-  std::unordered_map<int, std::size_t> added_at;
-  if (!scan_added)
-    for (std::size_t i = 0; i < n_added; ++i) added_at[added_tets[i]] = i;
-  // Where the scan would be long (a tick's record of a few hundred tets, a collapse's dozen
-  // removed, most of them not added here: ~3,000 comparisons each), each added slot's last place
-  // is noted by a stamp per slot instead: the place the scan from the end would find.
-  thread_local std::vector<unsigned> noted;
-  thread_local std::vector<std::size_t> noted_at;
-  thread_local unsigned note = 0;
-  const bool index_added = scan_added && later.removed_tets.size() * n_added > kScanAtMost;
-  if (index_added) {
-    int slots = 0;
-    for (int t : added_tets) slots = std::max(slots, t + 1);
-    nextStamp(&noted, &note, slots);
-    growSlots(&noted_at, slots, std::size_t{0});
-    for (std::size_t i = 0; i < n_added; ++i) {
-      noted[added_tets[i]] = note;
-      noted_at[added_tets[i]] = i;
-    }
+  if (!scan_added) {
+    notes.begin(added_tets);
+    for (std::size_t i = 0; i < n_added; ++i)
+      notes.note(added_tets[i], static_cast<long long>(i));  // the last place, as the scan finds
   }
   // later's removed slots and what each continued, in later.removed_tets' order
   std::vector<std::pair<int, int>> origin;
@@ -103,20 +115,14 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   std::vector<char> cancelled;
   for (int t : later.removed_tets) {
     std::size_t i = n_added;
-    if (index_added) {
-      if (t >= 0 && static_cast<std::size_t>(t) < noted.size() && noted[t] == note) i = noted_at[t];
-    } else if (scan_added) {
+    if (scan_added) {
       for (std::size_t k = n_added; k-- > 0;)
         if (added_tets[k] == t) {
           i = k;
           break;
         }
-    } else {
-      const auto it = added_at.find(t);
-      if (it != added_at.end()) {
-        i = it->second;
-        added_at.erase(it);
-      }
+    } else if (notes.noted(t)) {
+      i = static_cast<std::size_t>(notes.value[t]);
     }
     if (i < n_added && (cancelled.empty() || !cancelled[i])) {
       if (cancelled.empty()) cancelled.assign(n_added, 0);
@@ -139,8 +145,11 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
     added_from.resize(kept);
   }
   const bool scan_origin = later.added_tets.size() * origin.size() <= scan_limit;
-  std::unordered_map<int, int> origin_of;
-  if (!scan_origin) origin_of.insert(origin.begin(), origin.end());
+  if (!scan_origin) {
+    notes.begin(origin);
+    for (const auto& [t, o] : origin)
+      if (!notes.noted(t)) notes.note(t, o);  // the first, as the scan finds
+  }
   for (std::size_t i = 0; i < later.added_tets.size(); ++i) {
     int from = later.added_from[i];
     if (from >= 0) {
@@ -150,9 +159,8 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
             from = o;
             break;
           }
-      } else {
-        const auto it = origin_of.find(from);
-        if (it != origin_of.end()) from = it->second;
+      } else if (notes.noted(from)) {
+        from = static_cast<int>(notes.value[from]);
       }
     }
     added_tets.push_back(later.added_tets[i]);
