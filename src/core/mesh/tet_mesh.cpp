@@ -73,11 +73,8 @@ struct SlotNotes {
   std::vector<long long> value;
   unsigned pass = 0;
 
-  // A new pass over the slots of `tets`.
-  template <class Slots>
-  void begin(const Slots& tets) {
-    int slots = 0;
-    for (const auto& t : tets) slots = std::max(slots, slotOf(t) + 1);
+  // A new pass over slots below `slots`.
+  void begin(int slots) {
     nextStamp(&stamp, &pass, slots);
     growSlots(&value, slots, 0LL);
   }
@@ -88,8 +85,6 @@ struct SlotNotes {
     stamp[t] = pass;
     value[t] = v;
   }
-  static int slotOf(int t) { return t; }
-  static int slotOf(const std::pair<int, int>& e) { return e.first; }
 };
 
 }  // namespace
@@ -105,7 +100,8 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   const std::size_t n_added = added_tets.size();
   const bool scan_added = later.removed_tets.size() * n_added <= scan_limit;
   if (!scan_added) {
-    notes.begin(added_tets);
+    notes.begin(added_tets.empty() ? 0
+                                   : *std::max_element(added_tets.begin(), added_tets.end()) + 1);
     for (std::size_t i = 0; i < n_added; ++i)
       notes.note(added_tets[i], static_cast<long long>(i));  // the last place, as the scan finds
   }
@@ -146,7 +142,7 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   }
   const bool scan_origin = later.added_tets.size() * origin.size() <= scan_limit;
   if (!scan_origin) {
-    notes.begin(origin);
+    notes.begin(origin.empty() ? 0 : std::max_element(origin.begin(), origin.end())->first + 1);
     for (const auto& [t, o] : origin)
       if (!notes.noted(t)) notes.note(t, o);  // the first, as the scan finds
   }
