@@ -35,6 +35,11 @@ struct Config {
   struct Cut {
     double blade_length = 0.03;  ///< along the tool's -z from its origin [m]
     double max_jump = 0.02;      ///< a longer move in one tick lifts the blade [m]
+    /// The blade's path smoothed before cutting (BladeFilter, for trembling tools and noisy
+    /// trackers): a still blade's cutoff [Hz], 0 = off; and how fast the cutoff rises with the
+    /// blade's speed [1/m] (a steady blade trails the tool by about sqrt(v / (2 pi beta rate))).
+    double filter_min_cutoff = 0.0;
+    double filter_beta = 20.0;
   } cut;
 
   struct Collapse {

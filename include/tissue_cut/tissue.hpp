@@ -9,6 +9,7 @@
 
 #include "tissue_cut/config.hpp"
 #include "tissue_cut/cut/blade.hpp"
+#include "tissue_cut/cut/blade_filter.hpp"
 #include "tissue_cut/cut/cutter.hpp"
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -27,6 +28,9 @@ MeshData loadTissueMesh(const Config& config);
 /// The physics parameters a configuration gives.
 MassSpringParams massSpringParams(const Config& config);
 
+/// The blade filter's parameters a configuration gives (cut/filter_*, cut/max_jump).
+BladeFilterParams bladeFilterParams(const Config& config);
+
 class Tissue {
  public:
   /// Builds the model on `mesh` (#V by 3 rest positions [m], #T by 4 tets).
@@ -38,6 +42,7 @@ class Tissue {
   Tissue& operator=(const Tissue&) = delete;
 
   /// One tick of `dt` [s]: cut with the blade (none = the blade is away), remesh, simulate.
+  /// With cut/filter_min_cutoff > 0 the cutter gets the blade smoothed by a BladeFilter.
   /// Returns a warning for the caller to log (the blade was lifted), or "".
   std::string step(const std::optional<BladeSegment>& blade, double dt);
 
@@ -51,10 +56,10 @@ class Tissue {
   void reset();
 
   /// Applies a changed configuration between ticks: collapse (enabled, tau, budget), the cut's
-  /// blade length and max jump, and the physics material (enabled, integrator, density, Young's
-  /// modulus, damping, gravity). Keys that need the model rebuilt (mesh, mesh_max_tets,
-  /// block_cell_size, physics/fixed_*) must be unchanged. Returns "" when applied, else the
-  /// first key that is invalid or cannot change live; the model is then left as it was.
+  /// blade length, max jump and blade filter, and the physics material (enabled, integrator,
+  /// density, Young's modulus, damping, gravity). Keys that need the model rebuilt (mesh,
+  /// mesh_max_tets, block_cell_size, physics/fixed_*) must be unchanged. Returns "" when applied,
+  /// else the first key that is invalid or cannot change live; the model is then left as it was.
   std::string reconfigure(const Config& config);
 
   const TetMesh& mesh() const { return mesh_; }
@@ -92,6 +97,7 @@ class Tissue {
   MeshData initial_;
   TetMesh mesh_;
   std::unique_ptr<Cutter> cutter_;
+  BladeFilter blade_filter_;
   std::unique_ptr<MassSpring> physics_;
   std::unique_ptr<CollapseQueue> collapse_;
   long long busy_epoch_ = -1;  // the cutter's state epoch when the queue last looked at it

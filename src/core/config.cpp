@@ -31,6 +31,10 @@ const std::map<std::string, Setter>& setters() {
       {"cut/blade_length",
        [](const YAML::Node& n, Config& c) { c.cut.blade_length = n.as<double>(); }},
       {"cut/max_jump", [](const YAML::Node& n, Config& c) { c.cut.max_jump = n.as<double>(); }},
+      {"cut/filter_min_cutoff",
+       [](const YAML::Node& n, Config& c) { c.cut.filter_min_cutoff = n.as<double>(); }},
+      {"cut/filter_beta",
+       [](const YAML::Node& n, Config& c) { c.cut.filter_beta = n.as<double>(); }},
       {"collapse/enabled",
        [](const YAML::Node& n, Config& c) { c.collapse.enabled = n.as<bool>(); }},
       {"collapse/tau", [](const YAML::Node& n, Config& c) { c.collapse.tau = n.as<double>(); }},
@@ -65,9 +69,7 @@ const std::map<std::string, Setter>& setters() {
       {"physics/local_presolve",
        [](const YAML::Node& n, Config& c) { c.physics.local_presolve = n.as<bool>(); }},
       {"physics/local_presolve_neighbours",
-       [](const YAML::Node& n, Config& c) {
-         c.physics.local_presolve_neighbours = n.as<bool>();
-       }},
+       [](const YAML::Node& n, Config& c) { c.physics.local_presolve_neighbours = n.as<bool>(); }},
       {"physics/quadratic_warm_start",
        [](const YAML::Node& n, Config& c) { c.physics.quadratic_warm_start = n.as<bool>(); }},
   };
@@ -128,6 +130,11 @@ std::string Config::check() const {
   if (!finitePositive(cut.blade_length) || cut.blade_length > 1.0)
     return "cut/blade_length: must be in (0, 1] m";
   if (!finitePositive(cut.max_jump)) return "cut/max_jump: must be positive";
+  if (!std::isfinite(cut.filter_min_cutoff) || cut.filter_min_cutoff < 0 ||
+      cut.filter_min_cutoff > 0.5 * rate)
+    return "cut/filter_min_cutoff: must be 0 (off) or positive, at most rate / 2 [Hz]";
+  if (!std::isfinite(cut.filter_beta) || cut.filter_beta < 0)
+    return "cut/filter_beta: must be non-negative [1/m]";
   if (!std::isfinite(collapse.tau) || collapse.tau < 0 || collapse.tau > 1)
     return "collapse/tau: must be in [0, 1]";
   if (!std::isfinite(collapse.budget_us) || collapse.budget_us < 0)

@@ -37,6 +37,14 @@ MeshData loadTissueMesh(const Config& config) {
   return mesh;
 }
 
+BladeFilterParams bladeFilterParams(const Config& config) {
+  BladeFilterParams p;
+  p.min_cutoff = config.cut.filter_min_cutoff;
+  p.beta = config.cut.filter_beta;
+  p.max_jump = config.cut.max_jump;
+  return p;
+}
+
 MassSpringParams massSpringParams(const Config& config) {
   MassSpringParams p;
   p.density = config.physics.density;
@@ -77,6 +85,7 @@ void Tissue::reset() {
   CutterOptions cut;
   cut.max_jump = config_.cut.max_jump;
   cutter_ = std::make_unique<Cutter>(&mesh_, cut);
+  blade_filter_ = BladeFilter(bladeFilterParams(config_));
   physics_ = std::make_unique<MassSpring>(&mesh_, massSpringParams(config_));
   if (config_.physics.enabled) physics_->prepare(1.0 / config_.rate);
   collapse_ =
@@ -112,6 +121,7 @@ std::string Tissue::reconfigure(const Config& c) {
       c.physics.fixed_band != config_.physics.fixed_band)
     return "physics/fixed_axis, fixed_side, fixed_band: cannot change live";
   if (c.cut.max_jump != config_.cut.max_jump) cutter_->setMaxJump(c.cut.max_jump);
+  blade_filter_.setParams(bladeFilterParams(c));
   collapse_->setTau(c.collapse.tau);
   collapse_->setBudget(c.collapse.budget_us);
   physics_->setParams(massSpringParams(c));
@@ -224,7 +234,7 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
     // A broken pose must not reach the geometry; the cut waits for the next good one.
     warning = "blade position is not finite: ignored this tick";
   } else {
-    warning = cutter_->step(blade, &change);
+    warning = cutter_->step(blade_filter_(blade, dt), &change);
   }
   applyChange(change);
   physics_->follow(change);

@@ -63,6 +63,8 @@ void putModelValues(const Config& c, TissueConfig* r) {
   r->collapse_budget_us = c.collapse.budget_us;
   r->collapse_deadline = c.collapse.deadline;
   r->blade_length = c.cut.blade_length;
+  r->blade_filter_min_cutoff = c.cut.filter_min_cutoff;
+  r->blade_filter_beta = c.cut.filter_beta;
   r->physics_enabled = c.physics.enabled;
   r->young_modulus = c.physics.young_modulus;
   r->damping = c.physics.damping;
@@ -77,6 +79,8 @@ Config withReconfigureValues(Config c, const TissueConfig& r) {
   c.collapse.budget_us = r.collapse_budget_us;
   c.collapse.deadline = r.collapse_deadline;
   c.cut.blade_length = r.blade_length;
+  c.cut.filter_min_cutoff = r.blade_filter_min_cutoff;
+  c.cut.filter_beta = r.blade_filter_beta;
   c.physics.enabled = r.physics_enabled;
   c.physics.young_modulus = r.young_modulus;
   c.physics.damping = r.damping;

@@ -31,6 +31,8 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.block_cell_size = 0.01;
   other.cut.blade_length = 0.5;
   other.cut.max_jump = 0.5;
+  other.cut.filter_min_cutoff = 3.0;
+  other.cut.filter_beta = 1.0;
   other.collapse.enabled = !d.collapse.enabled;
   other.collapse.tau = 0.9;
   other.collapse.budget_us = 7;
@@ -60,6 +62,8 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.block_cell_size, d.block_cell_size);
   EXPECT_EQ(f.cut.blade_length, d.cut.blade_length);
   EXPECT_EQ(f.cut.max_jump, d.cut.max_jump);
+  EXPECT_EQ(f.cut.filter_min_cutoff, d.cut.filter_min_cutoff);
+  EXPECT_EQ(f.cut.filter_beta, d.cut.filter_beta);
   EXPECT_EQ(f.collapse.enabled, d.collapse.enabled);
   EXPECT_EQ(f.collapse.tau, d.collapse.tau);
   EXPECT_EQ(f.collapse.budget_us, d.collapse.budget_us);
@@ -78,7 +82,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.physics.local_presolve, d.physics.local_presolve);
   EXPECT_EQ(f.physics.local_presolve_neighbours, d.physics.local_presolve_neighbours);
   EXPECT_EQ(f.physics.quadratic_warm_start, d.physics.quadratic_warm_start);
-  EXPECT_EQ(configKeys().size(), 27u) << "a key was added: extend this test and tissue.yaml";
+  EXPECT_EQ(configKeys().size(), 29u) << "a key was added: extend this test and tissue.yaml";
 }
 
 TEST(Config, PartialFileOverridesOnlyItsKeys) {
@@ -101,6 +105,10 @@ TEST(Config, AbsurdValuesAreNamed) {
   const std::pair<std::string, std::string> cases[] = {
       {"rate: 0\n", "rate"},
       {"cut:\n  blade_length: -1\n", "cut/blade_length"},
+      {"cut:\n  filter_min_cutoff: -1\n", "cut/filter_min_cutoff"},
+      {"cut:\n  filter_min_cutoff: 501\n", "cut/filter_min_cutoff"},
+      {"cut:\n  filter_beta: -2\n", "cut/filter_beta"},
+      {"cut:\n  filter_beta: smooth\n", "cut/filter_beta"},
       {"collapse:\n  tau: 2\n", "collapse/tau"},
       {"collapse:\n  deadline: 1.5\n", "collapse/deadline"},
       {"collapse:\n  deadline: -0.1\n", "collapse/deadline"},
