@@ -83,6 +83,20 @@ Outcome cut(const std::vector<BladeSegment>& blades, double min_cutoff) {
   return {countPieces(tissue.mesh()), boundaryEulerCharacteristic(tissue.mesh())};
 }
 
+// Strokes of seeds first..last (noisyStroke()'s arguments otherwise): each must come out clean
+// filtered at 1 Hz / 20 per m. Returns how many came out clean unfiltered.
+int cleanUnfiltered(unsigned first, unsigned last, double sigma, int every, bool back) {
+  int clean_raw = 0;
+  for (unsigned seed = first; seed <= last; ++seed) {
+    const std::vector<BladeSegment> blades = noisyStroke(seed, sigma, every, back);
+    const Outcome raw = cut(blades, 0.0), filtered = cut(blades, 1.0);
+    clean_raw += raw.clean();
+    EXPECT_TRUE(filtered.clean()) << "seed " << seed << ": " << filtered.pieces << " pieces, chi "
+                                  << filtered.chi;
+  }
+  return clean_raw;
+}
+
 }  // namespace
 
 TEST(BladeFilter, OffPassesEveryBladeUnchanged) {
@@ -186,14 +200,7 @@ TEST(BladeFilter, AJumpOrALiftPassesWhole) {
 // own cut: unfiltered, most of these strokes cut chips or leave handles (README, Reliability);
 // filtered at 1 Hz / 20 per m, every one leaves one piece with the boundary of a slit.
 TEST(BladeFilter, StrokesOfATremblingToolComeOutClean) {
-  int clean_raw = 0;
-  for (unsigned seed = 11; seed <= 20; ++seed) {
-    const std::vector<BladeSegment> blades = noisyStroke(seed, 0.0001, 1, true);
-    const Outcome raw = cut(blades, 0.0), filtered = cut(blades, 1.0);
-    clean_raw += raw.clean();
-    EXPECT_TRUE(filtered.clean()) << "seed " << seed << ": " << filtered.pieces << " pieces, chi "
-                                  << filtered.chi;
-  }
+  const int clean_raw = cleanUnfiltered(11, 20, 0.0001, 1, true);
   std::printf("clean strokes of ten, unfiltered: %d\n", clean_raw);
   EXPECT_LE(clean_raw, 5);  // the filter is what makes them clean
 }
@@ -201,14 +208,7 @@ TEST(BladeFilter, StrokesOfATremblingToolComeOutClean) {
 // A 62.5 Hz tracker's noise of 0.15 mm (drawn every 16 ticks, interpolated), strokes out along
 // the block: unfiltered some leave handles or chips; filtered, none.
 TEST(BladeFilter, StrokesOfAWaveringTrackerComeOutClean) {
-  int clean_raw = 0;
-  for (unsigned seed = 11; seed <= 30; ++seed) {
-    const std::vector<BladeSegment> blades = noisyStroke(seed, 0.00015, 16, false);
-    const Outcome raw = cut(blades, 0.0), filtered = cut(blades, 1.0);
-    clean_raw += raw.clean();
-    EXPECT_TRUE(filtered.clean()) << "seed " << seed << ": " << filtered.pieces << " pieces, chi "
-                                  << filtered.chi;
-  }
+  const int clean_raw = cleanUnfiltered(11, 30, 0.00015, 16, false);
   std::printf("clean strokes of twenty, unfiltered: %d\n", clean_raw);
   EXPECT_LE(clean_raw, 18);
 }
