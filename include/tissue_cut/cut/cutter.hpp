@@ -329,9 +329,11 @@ class Cutter {
   void quietTet(const TetVerts& tv, double lower,
                 const std::vector<std::pair<int, int>>& cut_edges);
   /// Starts a batch of quietTet() calls (one state of the mesh and the cut): each vertex is
-  /// looked at once in a batch (quiet_seen_[v] == quiet_batch_ once it was).
+  /// looked at once in a batch (quiet_seen_[v] == quiet_batch_ once it was; its distance from
+  /// quiet_ref_'s blade is then in quiet_dist_[v]).
   void newQuietBatch();
   std::vector<unsigned> quiet_seen_;
+  std::vector<double> quiet_dist_;
   unsigned quiet_batch_ = 0;
   /// Whether this tick's sweep from `from` to `to` and its fronts leave alone every kept feature
   /// the moves since quiet_ref_, `moved` with this tick's, have reached.

@@ -1431,12 +1431,17 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   const double ball = distanceToSegment(centre, at.base, at.tip) - radius;
   if (!(ball <= near + band)) return;
   // Each vertex once a batch (it is in ~20 of these tets): what it gives does not depend on
-  // the tet.
+  // the tet. Its distance from the blade is kept for the edges below.
+  std::array<double, 4> dist;
   for (int k = 0; k < 4; ++k) {
-    if (quiet_seen_[tv[k]] == quiet_batch_) continue;
+    if (quiet_seen_[tv[k]] == quiet_batch_) {
+      dist[k] = quiet_dist_[tv[k]];
+      continue;
+    }
     quiet_seen_[tv[k]] = quiet_batch_;
     const double own = onWound(tv[k]) ? wide : snap_distance_;
     const double d = distanceToSegment(x[k], at.base, at.tip);
+    quiet_dist_[tv[k]] = dist[k] = d;
     if (d <= own + near && !snapLooksOnly(tv[k])) quiet_verts_.push_back({d - own, tv[k]});
   }
   if (ball <= near)
@@ -1445,10 +1450,11 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
       if (onCut(a) || onCut(b) ||
           std::binary_search(cut_edges.begin(), cut_edges.end(), std::make_pair(a, b)))
         continue;
-      // A ball around the edge first.
+      // A lower bound first: a point of the edge t from one end and L - t from the other lies at
+      // least d_a - t and d_b - (L - t) from the blade, so at least (d_a + d_b - L) / 2 (the
+      // slack covers rounding: the bound only filters, the distance below decides).
       const Vec3 &pa = x[e[0]], &pb = x[e[1]];
-      if (!(distanceToSegment(0.5 * (pa + pb), at.base, at.tip) - 0.5 * (pb - pa).norm() <= near))
-        continue;
+      if (!(0.5 * (dist[e[0]] + dist[e[1]] - (pb - pa).norm()) <= near + quiet_slack_)) continue;
       const double d = segmentSegmentDistance(pa, pb, at.base, at.tip);
       if (d <= near) quiet_edges_.push_back({d, a, b});
     }
@@ -1470,7 +1476,10 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   }
 }
 
-void Cutter::newQuietBatch() { nextStamp(&quiet_seen_, &quiet_batch_, mesh_->vertexSlots()); }
+void Cutter::newQuietBatch() {
+  nextStamp(&quiet_seen_, &quiet_batch_, mesh_->vertexSlots());
+  growSlots(&quiet_dist_, quiet_seen_.size(), 0.0);
+}
 
 void Cutter::sortQuiet() {
   quiet_unsorted_ = false;
