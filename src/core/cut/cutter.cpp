@@ -1447,14 +1447,15 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   if (ball <= near)
     for (const auto& e : kTetEdge) {
       const int a = std::min(tv[e[0]], tv[e[1]]), b = std::max(tv[e[0]], tv[e[1]]);
-      if (onCut(a) || onCut(b) ||
-          std::binary_search(cut_edges.begin(), cut_edges.end(), std::make_pair(a, b)))
-        continue;
+      if (onCut(a) || onCut(b)) continue;
       // A lower bound first: a point of the edge t from one end and L - t from the other lies at
       // least d_a - t and d_b - (L - t) from the blade, so at least (d_a + d_b - L) / 2 (the
-      // slack covers rounding: the bound only filters, the distance below decides).
+      // slack covers rounding: the bound only filters, the distance below decides). Compared
+      // squared: L >= d_a + d_b - 2 (near + slack).
       const Vec3 &pa = x[e[0]], &pb = x[e[1]];
-      if (!(0.5 * (dist[e[0]] + dist[e[1]] - (pb - pa).norm()) <= near + quiet_slack_)) continue;
+      const double shortest = dist[e[0]] + dist[e[1]] - 2.0 * (near + quiet_slack_);
+      if (shortest > 0.0 && (pb - pa).squaredNorm() < shortest * shortest) continue;
+      if (std::binary_search(cut_edges.begin(), cut_edges.end(), std::make_pair(a, b))) continue;
       const double d = segmentSegmentDistance(pa, pb, at.base, at.tip);
       if (d <= near) quiet_edges_.push_back({d, a, b});
     }
