@@ -2,7 +2,7 @@
 // or whose tracker is noisy. A One Euro filter (Casiez, Roussel and Vogel, CHI 2012): a first-order
 // low-pass whose cutoff rises with the blade's speed, so a still or slow blade loses its jitter
 // and a fast one keeps up. The speed is estimated, as in the authors' reference code, from the
-// tool's move away from the filtered blade, low-passed at speed_cutoff. Both ends share one cutoff
+// tool's move away from the filtered blade, low-passed at 1 Hz. Both ends share one cutoff
 // (from the faster end), so the blade is a weighted mean of its past positions; it is then set
 // back to the tool's blade length along its mean direction.
 #pragma once
@@ -21,8 +21,6 @@ struct BladeFilterParams {
   /// trails the tool by just under sqrt(v dt / (2 pi beta)) (dt the tick; at 1 kHz and beta 20:
   /// 0.25 mm at 1 cm/s, 0.6 mm at 5 cm/s, 1.3 mm at 26 cm/s), and catches up once it stops.
   double beta = 20.0;
-  /// Cutoff of the speed estimate [Hz] (its authors' default).
-  double speed_cutoff = 1.0;
   /// A tool farther than this from the filtered blade (either end) restarts the filter at the
   /// tool [m]: the cutter then sees the jump whole (see CutterOptions::max_jump).
   double max_jump = 0.02;

@@ -7,6 +7,8 @@ namespace tissue_cut {
 
 namespace {
 
+constexpr double kSpeedCutoff = 1.0;  // of the speed estimate [Hz] (the authors' default)
+
 // The smoothing factor of a first-order low-pass with cutoff `hz` sampled every `dt` s.
 double smoothing(double hz, double dt) {
   const double tau = 1.0 / (2.0 * M_PI * hz);
@@ -37,7 +39,7 @@ std::optional<BladeSegment> BladeFilter::operator()(const std::optional<BladeSeg
   }
   // The speed estimate first (from the tool's move away from the filtered blade), then the
   // blade with the cutoff that speed gives.
-  const double a_speed = smoothing(params_.speed_cutoff, dt);
+  const double a_speed = smoothing(kSpeedCutoff, dt);
   base_speed_ += a_speed * ((tool->base - blade_.base) / dt - base_speed_);
   tip_speed_ += a_speed * ((tool->tip - blade_.tip) / dt - tip_speed_);
   const double speed = std::max(base_speed_.norm(), tip_speed_.norm());
