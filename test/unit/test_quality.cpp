@@ -6,6 +6,7 @@
 #include <cstdlib>
 
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/remesh/edge_collapse.hpp"
 
 using tissue_cut::tetQuality;
 using tissue_cut::Vec3;
@@ -65,6 +66,48 @@ TEST(Quality, AgreesWithItsRadiiOnRandomTets) {
     ++checked;
   }
   EXPECT_EQ(checked, 20000);
+}
+
+TEST(Quality, SoundTetQualityIsTheSoundnessTestAndQualityInOnePass) {
+  // The remeshers ask soundTetQuality() instead of isSoundTet() then tetQuality(): it must give
+  // the very same answer, to the bit (a smoothing or flip decision compares these values), on
+  // both sides of the soundness threshold and for either orientation.
+  std::srand(11);
+  auto uniform = [] { return std::rand() / static_cast<double>(RAND_MAX) - 0.5; };
+  const double k = tissue_cut::kMinCollapseRelativeVolume;
+  int sound = 0, unsound = 0, near_threshold = 0;
+  for (int i = 0; i < 20000; ++i) {
+    std::array<Vec3, 4> p;
+    for (Vec3& x : p) x = Vec3(uniform(), uniform(), uniform());
+    // Every third tet flattened towards the plane of its first three corners, by a factor
+    // spread over 1e-8 .. 1e-3: volume over longest edge cubed from well below k to above it.
+    if (i % 3 == 1) {
+      const Vec3 n = (p[1] - p[0]).cross(p[2] - p[0]).normalized();
+      const double height = n.dot(p[3] - p[0]);
+      const double factor = std::pow(10.0, -3.0 - 5.0 * (i % 97) / 96.0);
+      p[3] -= (1.0 - factor) * height * n;
+    }
+    for (Vec3& x : p) x *= std::pow(10.0, -(i % 5));
+    const bool is_sound = tissue_cut::isSoundTet(p[0], p[1], p[2], p[3]);
+    const double expected = is_sound ? tetQuality(p[0], p[1], p[2], p[3]) : -1.0;
+    ASSERT_EQ(tissue_cut::soundTetQuality(p[0], p[1], p[2], p[3], k), expected) << "tet " << i;
+    (is_sound ? sound : unsound) += 1;
+    const double vol = std::abs(tissue_cut::signedVolume(p[0], p[1], p[2], p[3]));
+    double longest = 0.0;
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) longest = std::max(longest, (p[a] - p[b]).norm());
+    const double relative = vol / (longest * longest * longest);
+    if (relative > 0.3 * k && relative < 3.0 * k) ++near_threshold;
+  }
+  // Both answers, and tets on both sides near the threshold, were met.
+  EXPECT_GT(sound, 5000);
+  EXPECT_GT(unsound, 5000);
+  EXPECT_GT(near_threshold, 100);
+  // Flattened exactly, or inverted: -1.
+  const Vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0), d(0, 0, 1);
+  EXPECT_EQ(tissue_cut::soundTetQuality(a, b, c, Vec3(0.3, 0.3, 0), k), -1.0);
+  EXPECT_EQ(tissue_cut::soundTetQuality(a, c, b, d, k), -1.0);
+  EXPECT_EQ(tissue_cut::soundTetQuality(a, b, c, d, k), tetQuality(a, b, c, d));
 }
 
 TEST(Quality, DegenerateOrUndefinedTetsAreZero) {

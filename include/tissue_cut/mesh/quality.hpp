@@ -12,6 +12,12 @@ namespace tissue_cut {
 /// Orientation does not matter.
 double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 
+/// Q of the tet (a, b, c, d) [m] as tetQuality gives it when its signed volume is positive and
+/// above min_relative_volume * (longest edge)^3 (so orientation matters here); -1 otherwise. One
+/// pass for what the remeshers ask of every tet they would make: is it sound, and how good.
+double soundTetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+                       double min_relative_volume);
+
 /// Inradius and circumradius of the tet (a, b, c, d) [m]; 0 and +inf for a degenerate one.
 double tetInradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 double tetCircumradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);

@@ -32,19 +32,17 @@ double tetCircumradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
   return std::sqrt(heron) / (6.0 * vol);
 }
 
-double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  // Q = 3 r_in / r_circ with r_in = 3 V / A and r_circ = sqrt(H) / (6 V) (A: the faces' total
-  // area, H: Heron's product over the three products of opposite edge lengths) is
-  // 54 V^2 / (A sqrt(H)) = 3 D^2 / (2A sqrt(H)) with D = 6 V. The remeshers ask for a few million
-  // of these a second: the four doubled face areas and the three length products are taken as
-  // square roots of squares, four at a time (Eigen's packet sqrt), and there is one division.
-  const Vec3 ab = b - a, ac = c - a, ad = d - a, bc = c - b, bd = d - b, cd = d - c;
-  const double det = ab.dot(ac.cross(ad));
+namespace {
+
+// Q from a tet's edge vectors (ab = b - a, ...; cd only through its length), the squared lengths
+// and D = 6 V (see tetQuality).
+inline double qualityOf(const Vec3& ab, const Vec3& ac, const Vec3& ad, const Vec3& bc,
+                        const Vec3& bd, double ab2, double ac2, double ad2, double bc2, double bd2,
+                        double cd2, double det) {
   Eigen::Array4d faces, lengths;
   faces << bc.cross(bd).squaredNorm(), ac.cross(ad).squaredNorm(), ab.cross(ad).squaredNorm(),
       ab.cross(ac).squaredNorm();
-  lengths << ab.squaredNorm() * cd.squaredNorm(), ac.squaredNorm() * bd.squaredNorm(),
-      ad.squaredNorm() * bc.squaredNorm(), 0.0;
+  lengths << ab2 * cd2, ac2 * bd2, ad2 * bc2, 0.0;
   faces = faces.sqrt();
   lengths = lengths.sqrt();
   const double area2 = faces.sum();
@@ -56,6 +54,34 @@ double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   const double quality = 3.0 * det2 / (area2 * std::sqrt(heron));
   if (!std::isfinite(quality)) return 0.0;
   return std::min(1.0, quality);
+}
+
+}  // namespace
+
+double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  // Q = 3 r_in / r_circ with r_in = 3 V / A and r_circ = sqrt(H) / (6 V) (A: the faces' total
+  // area, H: Heron's product over the three products of opposite edge lengths) is
+  // 54 V^2 / (A sqrt(H)) = 3 D^2 / (2A sqrt(H)) with D = 6 V. The remeshers ask for a few million
+  // of these a second: the four doubled face areas and the three length products are taken as
+  // square roots of squares, four at a time (Eigen's packet sqrt), and there is one division.
+  const Vec3 ab = b - a, ac = c - a, ad = d - a, bc = c - b, bd = d - b, cd = d - c;
+  return qualityOf(ab, ac, ad, bc, bd, ab.squaredNorm(), ac.squaredNorm(), ad.squaredNorm(),
+                   bc.squaredNorm(), bd.squaredNorm(), cd.squaredNorm(), ab.dot(ac.cross(ad)));
+}
+
+double soundTetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+                       double min_relative_volume) {
+  // The edge vectors, their lengths and the volume serve both questions (the same operations
+  // as signedVolume() and tetQuality(): the same values).
+  const Vec3 ab = b - a, ac = c - a, ad = d - a, bc = c - b, bd = d - b, cd = d - c;
+  const double ab2 = ab.squaredNorm(), ac2 = ac.squaredNorm(), ad2 = ad.squaredNorm();
+  const double bc2 = bc.squaredNorm(), bd2 = bd.squaredNorm(), cd2 = cd.squaredNorm();
+  const double det = ab.dot(ac.cross(ad));
+  const double vol = det / 6.0;
+  const double longest2 = std::max({ab2, ac2, ad2, bc2, bd2, cd2});
+  const double k2 = min_relative_volume * min_relative_volume;
+  if (!(vol > 0.0 && vol * vol > k2 * longest2 * longest2 * longest2)) return -1.0;
+  return qualityOf(ab, ac, ad, bc, bd, ab2, ac2, ad2, bc2, bd2, cd2, det);
 }
 
 double restQuality(const TetMesh& mesh, int t) { return mesh.restQuality(t); }

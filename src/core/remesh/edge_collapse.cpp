@@ -69,6 +69,17 @@ bool frontKept(const TetMesh& mesh, int removed, int survivor, double shape_tole
   return distanceToSegment(p, s, o) <= tolerance * std::max((s - o).norm(), length_floor);
 }
 
+// isSoundTet of the tet whose signed volume (signedVolume()) is `vol`.
+bool isSoundWithVolume(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, double vol) {
+  const Vec3* p[4] = {&p0, &p1, &p2, &p3};
+  // vol > k L^3 with vol > 0, compared as squares: no square root (the remeshers ask for
+  // hundreds of thousands of these a second).
+  double longest2 = 0.0;
+  for (const auto& e : kTetEdge) longest2 = std::max(longest2, (*p[e[0]] - *p[e[1]]).squaredNorm());
+  constexpr double k2 = kMinCollapseRelativeVolume * kMinCollapseRelativeVolume;
+  return vol > 0.0 && vol * vol > k2 * longest2 * longest2 * longest2;
+}
+
 // The checks for moving `removed` onto `survivor`, in the order the header lists them.
 CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link_holds,
                        bool a_boundary, bool b_boundary, int a, int b, double shape_tolerance,
@@ -98,26 +109,34 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
   TetVerts tv;
   // A moved tet turned over in rest positions fails isSoundInMesh() at its first test: that one
   // test of every moved tet first finds most inversions at a fraction of the cost (the answer is
-  // the same; only how soon it is known changes).
-  for (int t : star)
-    if (moved(t, &tv) && !(signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]),
-                                        mesh.rest(tv[3])) > 0.0)) {
+  // the same; only how soon it is known changes). Its rest volumes are kept for the soundness
+  // test and the volume sum after it (NaN: the tet vanishes).
+  thread_local std::vector<double> rest_volume;
+  rest_volume.assign(star.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = 0; i < star.size(); ++i) {
+    if (!moved(star[i], &tv)) continue;
+    rest_volume[i] =
+        signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
+    if (!(rest_volume[i] > 0.0)) {
       check.refusal = CollapseRefusal::kInversion;
       check.worst_after = 0.0;
       return check;
     }
-  for (int t : star)
-    if (moved(t, &tv) && !isSoundInMesh(mesh, tv)) {
+  }
+  for (std::size_t i = 0; i < star.size(); ++i)
+    if (moved(star[i], &tv) &&
+        !(isSoundWithVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]),
+                            rest_volume[i]) &&
+          isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
+                     mesh.current(tv[3])))) {
       check.refusal = CollapseRefusal::kInversion;
       check.worst_after = 0.0;  // a flattened tet has Q = 0
       return check;
     }
   double volume_before = 0.0, volume_after = 0.0;
   for (int t : star) volume_before += mesh.restVolume(t);
-  for (int t : star)
-    if (moved(t, &tv))
-      volume_after +=
-          signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
+  for (const double v : rest_volume)
+    if (!std::isnan(v)) volume_after += v;
   check.volume_change = volume_after - volume_before;
   if (shape_tolerance <= 0.0) {
     // Inside the body the star keeps its volume exactly; a change means the moved vertex was on
@@ -160,14 +179,7 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
 // The threshold scales with the tet so that it means the same at every mesh size, and a tiny tet
 // made by a cut is not refused for being small.
 bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
-  const Vec3* p[4] = {&p0, &p1, &p2, &p3};
-  // vol > k L^3 with vol > 0, compared as squares: no square root (the remeshers ask for
-  // hundreds of thousands of these a second).
-  double longest2 = 0.0;
-  for (const auto& e : kTetEdge) longest2 = std::max(longest2, (*p[e[0]] - *p[e[1]]).squaredNorm());
-  const double vol = signedVolume(p0, p1, p2, p3);
-  constexpr double k2 = kMinCollapseRelativeVolume * kMinCollapseRelativeVolume;
-  return vol > 0.0 && vol * vol > k2 * longest2 * longest2 * longest2;
+  return isSoundWithVolume(p0, p1, p2, p3, signedVolume(p0, p1, p2, p3));
 }
 
 bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv) {

@@ -11,16 +11,23 @@ namespace tissue_cut {
 
 namespace {
 
-double quality(const TetMesh& mesh, const TetVerts& tv) {
-  return tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
+// The rest Q of a tet sound in rest and current positions (isSoundInMesh), else -1.
+double soundQuality(const TetMesh& mesh, const TetVerts& tv) {
+  const double q = soundTetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]),
+                                   mesh.rest(tv[3]), kMinCollapseRelativeVolume);
+  if (q < 0.0 || !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
+                             mesh.current(tv[3])))
+    return -1.0;
+  return q;
 }
 
 // Fills worst_after from `added` (all sound) and decides against min_gain.
 bool finish(const TetMesh& mesh, double min_gain, FlipCandidate* c) {
   c->worst_after = 1.0;
   for (const TetVerts& tv : c->added) {
-    if (!isSoundInMesh(mesh, tv)) return false;
-    c->worst_after = std::min(c->worst_after, quality(mesh, tv));
+    const double q = soundQuality(mesh, tv);
+    if (q < 0.0) return false;
+    c->worst_after = std::min(c->worst_after, q);
   }
   return c->worst_after >= c->worst_before + min_gain;
 }
@@ -108,8 +115,11 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
     if (!chordFree(i, k) || !chordFree(k, j) || !chordFree(i, j)) return -1.0;
     if (mesh.faceTet(ring[i], ring[k], ring[j]) >= 0) return -1.0;
     const TetVerts up{ring[i], ring[k], ring[j], b}, down{ring[i], ring[j], ring[k], a};
-    if (!isSoundInMesh(mesh, up) || !isSoundInMesh(mesh, down)) return -1.0;
-    return std::min(quality(mesh, up), quality(mesh, down));
+    const double q_up = soundQuality(mesh, up);
+    if (q_up < 0.0) return -1.0;
+    const double q_down = soundQuality(mesh, down);
+    if (q_down < 0.0) return -1.0;
+    return std::min(q_up, q_down);
   };
   // Klincsek's dynamic programme over sub-polygons: the triangulation maximising the worst Q.
   std::array<std::array<double, kMaxEdgeRing>, kMaxEdgeRing> best;

@@ -34,8 +34,8 @@ double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const
   double worst = 1.0;  // Q is at most 1: after the first look, the lowest Q seen
   auto look = [&](int i) {
     const auto c = restCorners(mesh, star[i], v, p);
-    if (!isSoundTet(c[0], c[1], c[2], c[3])) return worst = -1.0;
-    const double q = tetQuality(c[0], c[1], c[2], c[3]);
+    const double q = soundTetQuality(c[0], c[1], c[2], c[3], kMinCollapseRelativeVolume);
+    if (q < 0.0) return worst = -1.0;  // not sound
     if (q < worst || (q == worst && i < *worst_at)) *worst_at = i;
     return worst = std::min(worst, q);
   };
@@ -113,7 +113,8 @@ VertexFreedom vertexFreedom(const TetMesh& mesh, int v, Vec3* direction) {
 bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
                   SmoothingCheck* check) {
   SmoothingCheck out;
-  const std::vector<int> star = mesh->vertexTets(v);
+  // The mesh's own list (nothing below changes it before moveVertex(), the last use).
+  const std::vector<int>& star = mesh->vertexTets(v);
   // The star's qualities where v is: the worst, and the first tet that has it.
   double lowest = 2.0;
   int worst_at = 0;
