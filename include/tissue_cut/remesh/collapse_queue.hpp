@@ -155,6 +155,9 @@ class CollapseQueue {
   // never drifts further than that from the cut's, however many operations reach a place.
   std::unordered_map<int, std::vector<Vec3>> ghosts_;
   using Triangle = std::array<Vec3, 3>;
+  // ghostsKept()'s buffers, kept so that a check allocates nothing once they have grown.
+  mutable std::vector<Triangle> faces_scratch_;
+  mutable std::vector<Vec3> points_scratch_;
   void boundaryFacesAround(int v, int removed, int survivor, const FlipCandidate* flip,
                            std::vector<Triangle>* out) const;
   bool ghostsNear(const std::vector<Vec3>& points, const std::vector<Triangle>& faces) const;

@@ -261,10 +261,12 @@ bool CollapseQueue::ghostsNear(const std::vector<Vec3>& points,
 bool CollapseQueue::ghostsKept(int removed, int survivor) const {
   if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0 || !isBoundaryVertex(*mesh_, removed))
     return true;
-  std::vector<Triangle> faces;
+  std::vector<Triangle>& faces = faces_scratch_;
+  faces.clear();
   boundaryFacesAround(removed, removed, survivor, nullptr, &faces);
   boundaryFacesAround(survivor, removed, survivor, nullptr, &faces);
-  std::vector<Vec3> points{mesh_->rest(removed)};
+  std::vector<Vec3>& points = points_scratch_;
+  points.assign(1, mesh_->rest(removed));
   for (int v : {removed, survivor}) {
     const auto it = ghosts_.find(v);
     if (it != ghosts_.end()) points.insert(points.end(), it->second.begin(), it->second.end());
@@ -276,9 +278,9 @@ bool CollapseQueue::ghostsKept(int removed, int survivor) const {
       if (u == removed || u == survivor) continue;
       const auto it = ghosts_.find(u);
       if (it == ghosts_.end()) continue;
-      std::vector<Triangle> around;
-      boundaryFacesAround(u, removed, survivor, nullptr, &around);
-      if (!ghostsNear(it->second, around)) return false;
+      faces.clear();
+      boundaryFacesAround(u, removed, survivor, nullptr, &faces);
+      if (!ghostsNear(it->second, faces)) return false;
     }
   }
   return true;
