@@ -169,6 +169,91 @@ TEST(Flips, EdgeRemovalRetriangulatesRingsOfEveryLength) {
   EXPECT_FALSE(removeEdge(too_long, 0, 1, -1.0, &flip));
 }
 
+namespace {
+
+// Every triangulation of the polygon ring[i..j] (as triangles of places in the ring).
+std::vector<std::vector<std::array<int, 3>>> triangulations(int i, int j) {
+  if (j - i < 2) return {{}};
+  std::vector<std::vector<std::array<int, 3>>> out;
+  for (int k = i + 1; k < j; ++k)
+    for (const auto& left : triangulations(i, k))
+      for (const auto& right : triangulations(k, j)) {
+        std::vector<std::array<int, 3>> t = left;
+        t.insert(t.end(), right.begin(), right.end());
+        t.push_back({i, k, j});
+        out.push_back(t);
+      }
+  return out;
+}
+
+// The rest Q of tet (p, q, r, s), or -1 when it is not sound (flat, or turned over).
+double soundQ(const TetMesh& mesh, int p, int q, int r, int s) {
+  return soundTetQuality(mesh.rest(p), mesh.rest(q), mesh.rest(r), mesh.rest(s),
+                         kMinCollapseRelativeVolume);
+}
+
+}  // namespace
+
+TEST(Flips, EdgeRemovalFindsTheBestOfAllTriangulations) {
+  // Jittered rings of 4 to 9 tets around an interior edge: removeEdge must take a flip exactly
+  // when the best triangulation of the ring (every one enumerated here, not by the programme)
+  // raises the worst Q by min_gain, and then with that best worst Q. The gains include ones a
+  // hair either side of what the best reaches, where a shortcut that misjudged a candidate
+  // would answer the other way.
+  std::srand(3);
+  auto uniform = [] { return std::rand() / static_cast<double>(RAND_MAX); };
+  int taken = 0, refused = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int n = 4 + trial % 6;
+    const double h = 0.3 + 2.5 * uniform();
+    std::vector<Vec3> p = {Vec3(0, 0, -h), Vec3(0, 0, h)};
+    for (int i = 0; i < n; ++i) {
+      const double angle = 2 * M_PI * (i + 0.35 * (uniform() - 0.5)) / n;
+      const double radius = 0.6 + 0.8 * uniform();
+      p.push_back(Vec3(radius * std::cos(angle), radius * std::sin(angle),
+                       0.6 * h * (uniform() - 0.5)));
+    }
+    Eigen::MatrixXd V(p.size(), 3);
+    for (std::size_t i = 0; i < p.size(); ++i) V.row(i) = p[i].transpose();
+    std::vector<TetVerts> list;
+    for (int i = 0; i < n; ++i) list.push_back({0, 1, 2 + i, 2 + (i + 1) % n});
+    TetMesh mesh(V, tets(list));
+    ASSERT_EQ(mesh.validate(), "") << trial;
+    double before = 1.0;
+    for (int t = 0; t < n; ++t) before = std::min(before, restQuality(mesh, t));
+    // The ring counter-clockwise seen from vertex 1: triangle (i, k, j), i < k < j, makes the
+    // tets (r_i, r_k, r_j, 1) and (r_i, r_j, r_k, 0), each of which must be sound.
+    std::vector<int> ring;
+    for (int i = 0; i < n; ++i) ring.push_back(2 + i);
+    if (signedVolume(mesh.rest(0), mesh.rest(1), mesh.rest(ring[0]), mesh.rest(ring[1])) < 0)
+      std::reverse(ring.begin(), ring.end());
+    double best = -1.0;
+    for (const auto& triangulation : triangulations(0, n - 1)) {
+      double worst_q = 1.0;
+      for (const auto& tri : triangulation) {
+        const int a = ring[tri[0]], b = ring[tri[1]], c = ring[tri[2]];
+        worst_q = std::min({worst_q, soundQ(mesh, a, b, c, 1), soundQ(mesh, a, c, b, 0)});
+      }
+      best = std::max(best, worst_q);
+    }
+    for (const double gain : {-1.0, 0.02, best - before - 1e-9, best - before + 1e-9}) {
+      FlipCandidate flip;
+      const bool found = removeEdge(mesh, 0, 1, gain, &flip);
+      ASSERT_EQ(found, best >= 0.0 && best >= before + gain)
+          << "trial " << trial << " n " << n << " gain " << gain << " best " << best;
+      if (!found) {
+        ++refused;
+        continue;
+      }
+      ++taken;
+      EXPECT_EQ(static_cast<int>(flip.added.size()), 2 * n - 4);
+      EXPECT_DOUBLE_EQ(flip.worst_after, best) << "trial " << trial;
+    }
+  }
+  EXPECT_GT(taken, 400);
+  EXPECT_GT(refused, 400);
+}
+
 TEST(Flips, EdgeRemovalUsesNoChordThatIsAnEdgeAlready) {
   // A square ring: its two diagonals are the only ways to triangulate it. A tet far away that
   // holds ring vertices 2 and 4 (one diagonal) leaves only the other, 3-5.

@@ -105,8 +105,16 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
   if (signedVolume(mesh.rest(a), mesh.rest(b), mesh.rest(ring[0]), mesh.rest(ring[1])) < 0)
     std::reverse(ring.begin(), ring.begin() + n);
 
+  // The flip is taken only where the triangulation's worst Q reaches `needed`. A candidate
+  // below it can neither be taken nor decide which triangulation is (see the programme below),
+  // so its exact value is not needed: any value below `needed` serves.
+  double worst_before = 1.0;
+  for (int i = 0; i < n; ++i)
+    worst_before = std::min(worst_before, restQuality(mesh, ring_tets[i]));
+  const double needed = worst_before + min_gain;
   // Triangle (i, k, j), i < k < j, gives the tets (r_i, r_k, r_j, b) and (r_i, r_j, r_k, a).
-  // Its worst Q, or -1 when a tet is unsound, a chord is an edge already or the triangle a face.
+  // Its worst Q, or -1 when a tet is unsound, a chord is an edge already or the triangle a face
+  // (or a value below `needed`, when the first tet is below it already).
   auto triangle = [&](int i, int k, int j) {
     auto chordFree = [&](int p, int q) {
       return q - p == 1 || (p == 0 && q == n - 1) ||
@@ -117,11 +125,18 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
     const TetVerts up{ring[i], ring[k], ring[j], b}, down{ring[i], ring[j], ring[k], a};
     const double q_up = soundQuality(mesh, up);
     if (q_up < 0.0) return -1.0;
+    if (q_up < needed) return q_up;
     const double q_down = soundQuality(mesh, down);
     if (q_down < 0.0) return -1.0;
     return std::min(q_up, q_down);
   };
   // Klincsek's dynamic programme over sub-polygons: the triangulation maximising the worst Q.
+  // Where a candidate's sub-polygons already fall below `needed`, its triangle is not measured:
+  // the candidate is below `needed` whatever it is. By induction over the sub-polygons' sizes, a
+  // sub-polygon's best is at least `needed` exactly when it would be with every triangle
+  // measured, and then it has the same value and apex (the candidates below `needed` lose to
+  // the best, and the first of equals wins as before); a triangulation is taken only where the
+  // whole polygon's best reaches `needed`, so the flip found is the same.
   std::array<std::array<double, kMaxEdgeRing>, kMaxEdgeRing> best;
   std::array<std::array<int, kMaxEdgeRing>, kMaxEdgeRing> apex;
   for (auto& row : best) row.fill(1.0);
@@ -131,17 +146,15 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
       const int j = i + len;
       best[i][j] = -1.0;
       for (int k = i + 1; k < j; ++k) {
-        const double q = std::min({best[i][k], best[k][j], triangle(i, k, j)});
+        const double sub = std::min(best[i][k], best[k][j]);
+        const double q = sub < needed ? sub : std::min(sub, triangle(i, k, j));
         if (q > best[i][j]) {
           best[i][j] = q;
           apex[i][j] = k;
         }
       }
     }
-  double worst_before = 1.0;
-  for (int i = 0; i < n; ++i)
-    worst_before = std::min(worst_before, restQuality(mesh, ring_tets[i]));
-  if (!(best[0][n - 1] >= worst_before + min_gain)) return false;
+  if (!(best[0][n - 1] >= needed)) return false;
   FlipCandidate cand;
   cand.removed.assign(ring_tets.begin(), ring_tets.begin() + n);
   cand.worst_before = worst_before;
