@@ -12,6 +12,14 @@ namespace tissue_cut {
 /// Orientation does not matter.
 double tetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 
+/// Whether a tet of signed volume `vol` [m^3] whose longest edge squared is `longest2` [m^2] is
+/// sound: vol > min_relative_volume * (longest edge)^3 with vol > 0, compared as squares (no
+/// square root: the remeshers ask for hundreds of thousands of these a second).
+inline bool soundVolume(double vol, double longest2, double min_relative_volume) {
+  const double k2 = min_relative_volume * min_relative_volume;
+  return vol > 0.0 && vol * vol > k2 * longest2 * longest2 * longest2;
+}
+
 /// Q of the tet (a, b, c, d) [m] as tetQuality gives it when its signed volume is positive and
 /// above min_relative_volume * (longest edge)^3 (so orientation matters here); -1 otherwise. One
 /// pass for what the remeshers ask of every tet they would make: is it sound, and how good.

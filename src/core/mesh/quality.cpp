@@ -78,9 +78,8 @@ double soundTetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
   const double bc2 = bc.squaredNorm(), bd2 = bd.squaredNorm(), cd2 = cd.squaredNorm();
   const double det = ab.dot(ac.cross(ad));
   const double vol = det / 6.0;
-  const double longest2 = std::max({ab2, ac2, ad2, bc2, bd2, cd2});
-  const double k2 = min_relative_volume * min_relative_volume;
-  if (!(vol > 0.0 && vol * vol > k2 * longest2 * longest2 * longest2)) return -1.0;
+  if (!soundVolume(vol, std::max({ab2, ac2, ad2, bc2, bd2, cd2}), min_relative_volume))
+    return -1.0;
   return qualityOf(ab, ac, ad, bc, bd, ab2, ac2, ad2, bc2, bd2, cd2, det);
 }
 

@@ -72,12 +72,9 @@ bool frontKept(const TetMesh& mesh, int removed, int survivor, double shape_tole
 // isSoundTet of the tet whose signed volume (signedVolume()) is `vol`.
 bool isSoundWithVolume(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, double vol) {
   const Vec3* p[4] = {&p0, &p1, &p2, &p3};
-  // vol > k L^3 with vol > 0, compared as squares: no square root (the remeshers ask for
-  // hundreds of thousands of these a second).
   double longest2 = 0.0;
   for (const auto& e : kTetEdge) longest2 = std::max(longest2, (*p[e[0]] - *p[e[1]]).squaredNorm());
-  constexpr double k2 = kMinCollapseRelativeVolume * kMinCollapseRelativeVolume;
-  return vol > 0.0 && vol * vol > k2 * longest2 * longest2 * longest2;
+  return soundVolume(vol, longest2, kMinCollapseRelativeVolume);
 }
 
 // The checks for moving `removed` onto `survivor`, in the order the header lists them.
