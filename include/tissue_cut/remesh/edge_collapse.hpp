@@ -33,9 +33,10 @@ constexpr double kMinCollapseRelativeVolume = 1e-6;
 /// kMinCollapseRelativeVolume * (longest edge)^3 (positive and not flattened).
 bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 
-/// Inputs: mesh, a tet's vertex ids (need not be a tet of the mesh yet). Output: isSoundTet in rest
-/// and in current positions: what every tet a remesher makes must be.
-bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv);
+/// Inputs: mesh, a tet's vertex ids (need not be a tet of the mesh yet). Output: its rest Q where
+/// it is sound (isSoundTet) in rest and in current positions, what every tet a remesher makes
+/// must be; -1 where it is not.
+double soundQualityInMesh(const TetMesh& mesh, const TetVerts& tv);
 
 /// Inputs: a triangle p, q, r, a displacement d [m] and a length floor [m]. Output: d's component
 /// along the triangle's normal relative to the larger of its longest edge and length_floor

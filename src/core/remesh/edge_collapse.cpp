@@ -104,7 +104,7 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
     return true;
   };
   TetVerts tv;
-  // A moved tet turned over in rest positions fails isSoundInMesh() at its first test: that one
+  // A moved tet turned over in rest positions fails the soundness test at its first step: that one
   // test of every moved tet first finds most inversions at a fraction of the cost (the answer is
   // the same; only how soon it is known changes). Its rest volumes are kept for the soundness
   // test and the volume sum after it (NaN: the tet vanishes).
@@ -179,10 +179,13 @@ bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) 
   return isSoundWithVolume(p0, p1, p2, p3, signedVolume(p0, p1, p2, p3));
 }
 
-bool isSoundInMesh(const TetMesh& mesh, const TetVerts& tv) {
-  return isSoundTet(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) &&
-         isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
-                    mesh.current(tv[3]));
+double soundQualityInMesh(const TetMesh& mesh, const TetVerts& tv) {
+  const double q = soundTetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]),
+                                   mesh.rest(tv[3]), kMinCollapseRelativeVolume);
+  if (q < 0.0 || !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
+                             mesh.current(tv[3])))
+    return -1.0;
+  return q;
 }
 
 std::vector<int> foldNeighbours(const TetMesh& mesh, int v) {

@@ -11,21 +11,11 @@ namespace tissue_cut {
 
 namespace {
 
-// The rest Q of a tet sound in rest and current positions (isSoundInMesh), else -1.
-double soundQuality(const TetMesh& mesh, const TetVerts& tv) {
-  const double q = soundTetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]),
-                                   mesh.rest(tv[3]), kMinCollapseRelativeVolume);
-  if (q < 0.0 || !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
-                             mesh.current(tv[3])))
-    return -1.0;
-  return q;
-}
-
 // Fills worst_after from `added` (all sound) and decides against min_gain.
 bool finish(const TetMesh& mesh, double min_gain, FlipCandidate* c) {
   c->worst_after = 1.0;
   for (const TetVerts& tv : c->added) {
-    const double q = soundQuality(mesh, tv);
+    const double q = soundQualityInMesh(mesh, tv);
     if (q < 0.0) return false;
     c->worst_after = std::min(c->worst_after, q);
   }
@@ -123,10 +113,10 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
     if (!chordFree(i, k) || !chordFree(k, j) || !chordFree(i, j)) return -1.0;
     if (mesh.faceTet(ring[i], ring[k], ring[j]) >= 0) return -1.0;
     const TetVerts up{ring[i], ring[k], ring[j], b}, down{ring[i], ring[j], ring[k], a};
-    const double q_up = soundQuality(mesh, up);
+    const double q_up = soundQualityInMesh(mesh, up);
     if (q_up < 0.0) return -1.0;
     if (q_up < needed) return q_up;
-    const double q_down = soundQuality(mesh, down);
+    const double q_down = soundQualityInMesh(mesh, down);
     if (q_down < 0.0) return -1.0;
     return std::min(q_up, q_down);
   };
