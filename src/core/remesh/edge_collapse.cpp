@@ -1,6 +1,7 @@
 #include "tissue_cut/remesh/edge_collapse.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -108,8 +109,14 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
   // test of every moved tet first finds most inversions at a fraction of the cost (the answer is
   // the same; only how soon it is known changes). Its rest volumes are kept for the soundness
   // test and the volume sum after it (NaN: the tet vanishes).
-  thread_local std::vector<double> rest_volume;
-  rest_volume.assign(star.size(), std::numeric_limits<double>::quiet_NaN());
+  // On the stack for any usual star (a vertex is in ~24 tets; a thread_local buffer cost a TLS
+  // lookup a call in this shared library).
+  constexpr std::size_t kOnStack = 128;
+  std::array<double, kOnStack> on_stack;
+  std::vector<double> spilled;
+  if (star.size() > kOnStack) spilled.resize(star.size());
+  double* const rest_volume = star.size() > kOnStack ? spilled.data() : on_stack.data();
+  std::fill_n(rest_volume, star.size(), std::numeric_limits<double>::quiet_NaN());
   for (std::size_t i = 0; i < star.size(); ++i) {
     if (!moved(star[i], &tv)) continue;
     rest_volume[i] =
@@ -132,8 +139,8 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
     }
   double volume_before = 0.0, volume_after = 0.0;
   for (int t : star) volume_before += mesh.restVolume(t);
-  for (const double v : rest_volume)
-    if (!std::isnan(v)) volume_after += v;
+  for (std::size_t i = 0; i < star.size(); ++i)
+    if (!std::isnan(rest_volume[i])) volume_after += rest_volume[i];
   check.volume_change = volume_after - volume_before;
   if (shape_tolerance <= 0.0) {
     // Inside the body the star keeps its volume exactly; a change means the moved vertex was on
