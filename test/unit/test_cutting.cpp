@@ -440,6 +440,43 @@ TEST(SweepGeometry, SegmentTetGapIsALowerBoundOfTheDistanceAndATightOne) {
   EXPECT_EQ(segmentTetGap(Vec3(5, 5, 5), Vec3(6, 6, 6), broken), 0.0);
 }
 
+// A pending tet keeps its face planes while its corners stay where they were (finalizeLeft()
+// asks each tick whether the blade is still inside). The answers must be segmentMeetsTet()'s to
+// the bit: on a tet that stays, and on one whose corners move (the planes made again), for
+// segments that miss it, cross it, end inside it or graze a face within the tolerance.
+TEST(SweepGeometry, KeptTetPlanesAnswerAsSegmentMeetsTet) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> corner(-1.0, 1.0), end(-2.0, 2.0), nudge(-0.3, 0.3);
+  int meets = 0, misses = 0, moved = 0;
+  for (int tet = 0; tet < 200; ++tet) {
+    std::array<Vec3, 4> p;
+    for (Vec3& x : p) x = Vec3(corner(rng), corner(rng), corner(rng));
+    if (tet % 20 == 0) p[3] = (p[0] + p[1] + p[2]) / 3.0;  // no volume: four faces in one plane
+    if (tet % 20 == 10) p[3] = p[2];  // two corners at one point: two faces without a normal
+    TetPlanes planes;
+    for (int ask = 0; ask < 60; ++ask) {
+      if (ask % 15 == 14) {  // the tet moves: a corner, or all of them a little
+        ++moved;
+        if (ask % 2)
+          p[ask % 4] += Vec3(nudge(rng), nudge(rng), nudge(rng));
+        else
+          for (Vec3& x : p) x += Vec3(1e-6, -2e-6, 3e-6);
+      }
+      Vec3 a(end(rng), end(rng), end(rng)), b(end(rng), end(rng), end(rng));
+      if (ask % 5 == 1) a = 0.25 * (p[0] + p[1] + p[2] + p[3]);  // from inside
+      if (ask % 5 == 2) b = a;                                   // a point
+      const double tolerance = ask % 3 == 0 ? 0.0 : 1e-3;
+      const bool expected = segmentMeetsTet(a, b, p[0], p[1], p[2], p[3], tolerance);
+      ASSERT_EQ(planes.meets(a, b, p[0], p[1], p[2], p[3], tolerance), expected)
+          << "tet " << tet << ", question " << ask;
+      (expected ? meets : misses) += 1;
+    }
+  }
+  EXPECT_GT(meets, 2000);
+  EXPECT_GT(misses, 2000);
+  EXPECT_GT(moved, 500);
+}
+
 // The sweep looks again at a tet only once the blade's moves and the tissue's (as told) could
 // have brought it within reach. A cutter told nothing looks at every tet near the blade each
 // tick; one told that the tissue stays still reuses its bounds across ticks. Both must cut the

@@ -137,6 +137,7 @@ class Cutter {
     std::vector<int> pieces;  // tet slots that stand for it now
     int steiner = -1;
     bool dirty = false;
+    TetPlanes planes;  // whether the blade is still inside it, asked each tick
   };
   // A tet of the coarse mesh the blade cuts: a pending tet, or a plain live tet.
   struct Coarse {

@@ -39,4 +39,18 @@ double segmentSegmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, co
 bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
                      const Vec3& d, double tolerance);
 
+/// segmentMeetsTet() for a tet asked again and again (a tet the blade is inside, each tick): its
+/// face planes are kept while its corners stay where they were, and the answer is the same to
+/// the bit.
+class TetPlanes {
+ public:
+  bool meets(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
+             const Vec3& d, double tolerance);
+
+ private:
+  std::array<Vec3, 4> corner_;  // the corners the planes were made from
+  std::array<Vec3, 4> normal_;  // each face's outward unit normal (zero: a flat face)
+  bool valid_ = false;
+};
+
 }  // namespace tissue_cut

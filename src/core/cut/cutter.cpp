@@ -756,10 +756,9 @@ void Cutter::finalizeLeft(const std::optional<BladeSegment>& blade, ChangeRecord
   left_.clear();
   for (auto& [pid, p] : pending_) {
     const TetVerts& c = p.cut.corner;
-    const bool left =
-        !blade ||
-        !segmentMeetsTet(blade->base, blade->tip, mesh_->current(c[0]), mesh_->current(c[1]),
-                         mesh_->current(c[2]), mesh_->current(c[3]), 1e-3 * mean_edge_);
+    const bool left = !blade || !p.planes.meets(blade->base, blade->tip, mesh_->current(c[0]),
+                                                mesh_->current(c[1]), mesh_->current(c[2]),
+                                                mesh_->current(c[3]), 1e-3 * mean_edge_);
     if (left) left_.push_back(pid);
     if (p.dirty && (!left || options_.subdivide_left)) resubdivide.push_back(pid);  // map order
   }

@@ -134,4 +134,34 @@ bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b,
   return true;
 }
 
+bool TetPlanes::meets(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
+                      const Vec3& d, double tolerance) {
+  // The same arithmetic as segmentMeetsTet(), with the planes made only when the corners moved.
+  const Vec3 v[4] = {a, b, c, d};
+  if (!valid_ || corner_[0] != a || corner_[1] != b || corner_[2] != c || corner_[3] != d) {
+    const double orientation = signedVolume(a, b, c, d) >= 0 ? 1.0 : -1.0;
+    for (int k = 0; k < 4; ++k) {
+      const auto& f = kTetFace[k];
+      Vec3 n = orientation * (v[f[1]] - v[f[0]]).cross(v[f[2]] - v[f[0]]);
+      const double len = n.norm();
+      normal_[k] = len > 0 ? Vec3(n / len) : Vec3::Zero();
+      corner_[k] = v[k];
+    }
+    valid_ = true;
+  }
+  double lo = 0.0, hi = 1.0;
+  for (int k = 0; k < 4; ++k) {
+    if (normal_[k] == Vec3::Zero()) continue;  // a flat face (len not > 0)
+    const Vec3& n = normal_[k];
+    const Vec3& origin = v[kTetFace[k][0]];
+    const double dp = n.dot(p - origin) - tolerance;  // inside when <= 0
+    const double dq = n.dot(q - origin) - tolerance;
+    if (dp > 0 && dq > 0) return false;
+    if (dp > 0) lo = std::max(lo, dp / (dp - dq));
+    if (dq > 0) hi = std::min(hi, dp / (dp - dq));
+    if (lo > hi) return false;
+  }
+  return true;
+}
+
 }  // namespace tissue_cut
