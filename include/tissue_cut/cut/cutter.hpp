@@ -336,6 +336,13 @@ class Cutter {
   std::vector<unsigned> quiet_seen_;
   std::vector<double> quiet_dist_;
   unsigned quiet_batch_ = 0;
+  /// Whether edge ab (a < b) is met for the first time in this batch (an edge lies in ~5 of the
+  /// batch's tets; its distance from the blade is measured once). An open-addressing set of the
+  /// batch's edges: a slot is taken where quiet_edge_stamp_ is quiet_batch_.
+  bool firstInQuietBatch(int a, int b);
+  std::vector<std::uint64_t> quiet_edge_key_;
+  std::vector<unsigned> quiet_edge_stamp_;
+  std::size_t quiet_edge_count_ = 0;
   /// Whether this tick's sweep from `from` to `to` and its fronts leave alone every kept feature
   /// the moves since quiet_ref_, `moved` with this tick's, have reached.
   bool watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved) const;
