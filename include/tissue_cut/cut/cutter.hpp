@@ -231,7 +231,15 @@ class Cutter {
   // the tissue by gap_tissue_ less that; a tet whose entry exceeds the sweep's reach plus both
   // cannot meet this tick's sweep, and the sweep leaves it alone (most ticks the blade moves
   // tens of micrometres inside tets of millimetres: only the tets it is in are looked at).
+  // An entry kGapDue is not measured yet: it passes every filter (a gap of at most gap_far_),
+  // and gapAt() measures it where it is first read.
   std::vector<double> near_gap_;
+  static constexpr double kGapDue = -1.0;
+  /// near_gap_[place], measured first where it is due.
+  double gapAt(std::size_t place) {
+    return near_gap_[place] != kGapDue ? near_gap_[place] : measureDue(place);
+  }
+  double measureDue(std::size_t place);
   BladeSegment gap_ref_, gap_last_;
   bool gap_valid_ = false;
   double gap_blade_ = 0.0, gap_tissue_ = 0.0;

@@ -152,8 +152,10 @@ void Cutter::joinNearCache(const std::vector<int>& tets) {
       }
       continue;
     }
-    // A tet filed anew is new or has moved (refiled, or a slot reused): its gap is taken now.
-    const double gap = gap_valid_ ? gapOf(t) + gap_tissue_ : 0.0;
+    // A tet filed anew is new or has moved (refiled, or a slot reused): its gap is taken where it
+    // is first read (kGapDue), so that a tet made and replaced before then (a pending tet's
+    // pieces, a collapse's star) is never measured.
+    const double gap = gap_valid_ ? kGapDue : 0.0;
     if (!cached) {
       near_cache_.insert(it, t);
       near_gap_.insert(near_gap_.begin() + i, gap);
@@ -208,6 +210,13 @@ void Cutter::gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out) {
   out->clear();
   for (int t : near_cache_)
     if (mesh_->tetAlive(t) && tetBoxMeets(*mesh_, t, lo, hi)) out->push_back(t);
+}
+
+double Cutter::measureDue(std::size_t i) {
+  // Measured now instead of when the tet was filed: the tissue's moves since gap_ref_ are counted
+  // as they are now, and the bound holds as well (see near_gap_).
+  const int t = near_cache_[i];
+  return near_gap_[i] = mesh_->tetAlive(t) ? gapOf(t) + gap_tissue_ : 0.0;
 }
 
 double Cutter::gapOf(int t) const {
@@ -298,8 +307,9 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
     const std::size_t i = take_close ? *close++ : *far++;
     const int t = near_cache_[i];
     // A pending tet's pieces are always looked at: the tet, not a piece, decides its part.
-    if (!(near_gap_[i] <= reach) && !isPendingPiece(t) &&
-        !(near_gap_[i] <= wound_reach && mesh_->tetAlive(t) &&
+    const double gap = gapAt(i);
+    if (!(gap <= reach) && !isPendingPiece(t) &&
+        !(gap <= wound_reach && mesh_->tetAlive(t) &&
           std::any_of(mesh_->tet(t).begin(), mesh_->tet(t).end(),
                       [&](int v) { return onWound(v); })))
       continue;
@@ -1575,7 +1585,7 @@ double Cutter::quietReach(const BladeSegment& at) {
   for (int i : near_close_) {
     const int t = near_cache_[i];
     if (mesh_->tetAlive(t) && !isPendingPiece(t))
-      quietTet(mesh_->tet(t), near_gap_[i] - moves, cut_edges);
+      quietTet(mesh_->tet(t), gapAt(i) - moves, cut_edges);
   }
   sortQuiet();
   return quiet_reach_;
