@@ -69,7 +69,7 @@ void expectSameMesh(const TetMesh& a, const TetMesh& b, const std::string& what)
   ASSERT_EQ(a.numBoundaryFaces(), b.numBoundaryFaces()) << what;
 }
 
-// Every live tet's kept rest Q is its Q measured now, to the bit.
+// Every live tet's kept rest Q and rest volume are the ones measured now, to the bit.
 void expectKeptQuality(const TetMesh& mesh, const std::string& what) {
   int wrong = 0;
   for (int t = 0; t < mesh.tetSlots(); ++t) {
@@ -79,6 +79,11 @@ void expectKeptQuality(const TetMesh& mesh, const std::string& what) {
         tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
     if (mesh.restQuality(t) != q && ++wrong <= 3)
       ADD_FAILURE() << what << ": tet " << t << " keeps " << mesh.restQuality(t) << ", has " << q;
+    const double volume =
+        signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
+    if (mesh.restVolume(t) != volume && ++wrong <= 3)
+      ADD_FAILURE() << what << ": tet " << t << " keeps volume " << mesh.restVolume(t) << ", has "
+                    << volume;
   }
   EXPECT_EQ(wrong, 0) << what;
 }

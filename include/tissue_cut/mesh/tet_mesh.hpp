@@ -173,7 +173,8 @@ class TetMesh {
   Eigen::MatrixXi liveTets(std::vector<int>* slots = nullptr) const;
 
   // --- measures of one tet
-  double restVolume(int t) const;
+  /// Signed volume of tet t in rest positions, kept with the tet as its quality is.
+  double restVolume(int t) const { return rest_volume_[t]; }
   double currentVolume(int t) const;
   /// Q of tet t in rest positions (tetQuality()), kept with the tet: rest positions change only
   /// through this class, and the remeshers ask for the same tets' Q tens of thousands of times.
@@ -238,6 +239,7 @@ class TetMesh {
   std::vector<std::vector<int>> vertex_tets_;
   std::vector<TetVerts> tets_;
   std::vector<double> rest_quality_;  // per tet slot; restQuality()
+  std::vector<double> rest_volume_;   // per tet slot; restVolume()
   std::vector<std::array<int, 4>> neighbors_;
   std::vector<unsigned char> tet_alive_;
   std::vector<int> free_tets_;

@@ -223,6 +223,7 @@ TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
   const int nt = static_cast<int>(T.rows());
   assignSlots(&tets_, nt);
   assignSlots(&rest_quality_, nt, 0.0);
+  assignSlots(&rest_volume_, nt, 0.0);
   assignSlots(&neighbors_, nt, {-1, -1, -1, -1});
   assignSlots(&tet_alive_, nt, static_cast<unsigned char>(1));
   num_tets_ = nt;
@@ -339,11 +340,6 @@ Eigen::MatrixXi TetMesh::liveTets(std::vector<int>* slots) const {
   return T;
 }
 
-double TetMesh::restVolume(int t) const {
-  const TetVerts& v = tets_[t];
-  return signedVolume(rest_[v[0]], rest_[v[1]], rest_[v[2]], rest_[v[3]]);
-}
-
 double TetMesh::currentVolume(int t) const {
   const TetVerts& v = tets_[t];
   return signedVolume(current_[v[0]], current_[v[1]], current_[v[2]], current_[v[3]]);
@@ -382,6 +378,7 @@ int TetMesh::allocateTet() {
   }
   tets_.emplace_back();
   rest_quality_.push_back(0.0);
+  rest_volume_.push_back(0.0);
   neighbors_.push_back({-1, -1, -1, -1});
   tet_alive_.push_back(0);
   return tetSlots() - 1;
@@ -422,6 +419,7 @@ void TetMesh::removeVertex(int v, ChangeRecord* record) {
 void TetMesh::measureTet(int t) {
   const TetVerts& tv = tets_[t];
   rest_quality_[t] = tetQuality(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]);
+  rest_volume_[t] = signedVolume(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]);
 }
 
 void TetMesh::linkTet(int t) {
@@ -710,9 +708,13 @@ std::string TetMesh::validate() const {
         return tetName(t) + " is missing from the incidence list of vertex " +
                std::to_string(tv[i]);
     }
-    const double vol = restVolume(t);
+    const double vol = signedVolume(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]);
     if (!(vol > 0)) {
       err << tetName(t) << " has non-positive rest volume " << vol;
+      return err.str();
+    }
+    if (rest_volume_[t] != vol) {
+      err << tetName(t) << " keeps rest volume " << rest_volume_[t] << " where it has " << vol;
       return err.str();
     }
     const double q = tetQuality(rest_[tv[0]], rest_[tv[1]], rest_[tv[2]], rest_[tv[3]]);
