@@ -139,7 +139,23 @@ class CollapseQueue {
   std::array<double, kRecentSteps> recent_steps_{};
   std::size_t steps_measured_ = 0;
   std::function<double()> budget_clock_;
-  std::priority_queue<Entry> heap_;
+  // The heap holds each entry's quality and its place in entries_ (16 bytes moved by each of the
+  // heap's steps instead of the entry's 48): the same comparisons, so the same order, ties
+  // included.
+  struct HeapItem {
+    double quality;
+    int entry;
+    bool operator<(const HeapItem& o) const { return quality > o.quality; }  // min-heap
+  };
+  std::priority_queue<HeapItem> heap_;
+  std::vector<Entry> entries_;    // the heap's entries, by place
+  std::vector<int> free_places_;  // places in entries_ of entries popped
+  void push(const Entry& e);
+  const Entry& top() const { return entries_[heap_.top().entry]; }
+  void pop() {
+    free_places_.push_back(heap_.top().entry);
+    heap_.pop();
+  }
   // A tet whose work stopped at the budget: the next call works it first (taken off the heap
   // once, so the heap's order is as if it had not stopped).
   std::optional<Entry> resume_;

@@ -27,6 +27,8 @@ CollapseQueue::CollapseQueue(TetMesh* mesh, double tau, double budget_us)
 void CollapseQueue::clear() {
   steps_measured_ = 0;
   heap_ = {};
+  entries_.clear();
+  free_places_.clear();
   resume_.reset();
   waiting_.clear();
   vertex_stamp_.clear();
@@ -49,6 +51,19 @@ long long CollapseQueue::stampOf(const TetVerts& tv) const {
   return stampOf(tv[0], tv[1]) + stampOf(tv[2], tv[3]);
 }
 
+void CollapseQueue::push(const Entry& e) {
+  int place;
+  if (free_places_.empty()) {
+    place = static_cast<int>(entries_.size());
+    entries_.push_back(e);
+  } else {
+    place = free_places_.back();
+    free_places_.pop_back();
+    entries_[place] = e;
+  }
+  heap_.push({e.quality, place});
+}
+
 void CollapseQueue::queueTet(int t) {
   if (!mesh_->tetAlive(t)) return;
   const TetVerts& tv = mesh_->tet(t);
@@ -57,7 +72,7 @@ void CollapseQueue::queueTet(int t) {
   if (queued_[t].first == tv && queued_[t].second == stamp) return;  // already queued as it is
   const double q = restQuality(*mesh_, t);
   if (!(q < tau_)) return;
-  heap_.push({q, t, tv, stamp});
+  push({q, t, tv, stamp});
   queued_[t] = {tv, stamp};
 }
 
@@ -355,7 +370,7 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   // Tets waiting for a busy neighbourhood stay aside while busy() answers as before: they would
   // only wait again (a tet a collapse changed since is queued anew by touched()).
   if (busy_changed) {
-    for (const Entry& e : waiting_) heap_.push(e);
+    for (const Entry& e : waiting_) push(e);
     waiting_.clear();
   }
   auto elapsed_us = [&] {
@@ -402,11 +417,11 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   double now = 0.0;
   while ((resume_ || !heap_.empty()) && (!attempted || budget <= 0 || spent_us() < budget) &&
          (!limited || fits(now = checkpoint()))) {
-    const Entry e = resume_ ? *resume_ : heap_.top();
+    const Entry e = resume_ ? *resume_ : top();
     if (resume_) {
       resume_.reset();
     } else {
-      heap_.pop();
+      pop();
     }
     // Gone (its slot may hold another tet): dropped. Its neighbourhood changed since: queued
     // again as it is now (touched() queues only the tets around the changed vertex itself).
