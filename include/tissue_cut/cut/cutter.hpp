@@ -106,6 +106,9 @@ class Cutter {
   /// True for vertices a remesher must leave alone: next to a tet still being cut, on a cut face
   /// not opened yet, or waiting to be split.
   bool isBusy(int v) const;
+  /// isBusy() worked out anew, without the answers it keeps while stateEpoch() stays (for
+  /// tests: the two must agree).
+  bool isBusyAfresh(int v) const;
   /// True for vertices on a cut: snapped onto one, made by one, or copies of those.
   bool onWound(int v) const {
     return static_cast<std::size_t>(v) < wound_flag_.size() && wound_flag_[v] != 0;
@@ -370,6 +373,9 @@ class Cutter {
   CutCounts counts_;
   long long epoch_ = 0;  // changes with anything the separation depends on (collapses too)
   long long busy_epoch_ = 0;  // see stateEpoch()
+  // isBusy()'s answers by vertex slot, each for the epoch busy_known_ holds plus one (0: none).
+  mutable std::vector<long long> busy_known_;
+  mutable std::vector<unsigned char> busy_answer_;
   void stateChanged() {
     ++epoch_;
     ++busy_epoch_;
