@@ -5,9 +5,11 @@
 #include <random>
 #include <set>
 #include <string>
+#include <unordered_map>
 
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/mesh/stamped_table.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 
 using namespace tissue_cut;
@@ -89,6 +91,47 @@ void expectKeptQuality(const TetMesh& mesh, const std::string& what) {
 }
 
 }  // namespace
+
+// The table that notes a few keys out of many (append()'s slots, the quiet reach's edges): the
+// same answers as a map, through passes of different sizes, growth past the size it was given,
+// keys that collide (consecutive ids, multiples of its size) and values replaced.
+TEST(StampedTable, AnswersAsAMapThroughPassesAndGrowth) {
+  std::mt19937 rng(3);
+  StampedTable<long long> table;
+  EXPECT_FALSE(table.contains(7));  // never begun: empty
+  std::unordered_map<std::uint64_t, long long> last;
+  for (int pass = 0; pass < 300; ++pass) {
+    const std::size_t expected = pass % 3 == 0 ? 0 : rng() % 200;
+    table.begin(expected);
+    std::unordered_map<std::uint64_t, long long> map;
+    const int puts = static_cast<int>(rng() % 600);
+    for (int k = 0; k < puts; ++k) {
+      std::uint64_t key;
+      switch (k % 3) {
+        case 0: key = static_cast<std::uint64_t>(pass * 1000 + k); break;  // consecutive
+        case 1: key = static_cast<std::uint64_t>(rng() % 64) * 1024; break;  // one residue
+        default: key = (std::uint64_t{rng()} << 32) | rng(); break;
+      }
+      const long long value = static_cast<long long>(rng());
+      EXPECT_EQ(table.put(key, value), map.count(key) == 0) << "pass " << pass;
+      map[key] = value;
+    }
+    for (const auto& [key, value] : map) {
+      ASSERT_TRUE(table.contains(key)) << "pass " << pass;
+      ASSERT_EQ(table.at(key), value) << "pass " << pass;
+    }
+    for (int k = 0; k < 200; ++k) {  // keys never put
+      const std::uint64_t key = static_cast<std::uint64_t>(rng() % 2000) * 7 + 1'000'000'000ull;
+      ASSERT_FALSE(table.contains(key)) << "pass " << pass;
+    }
+    for (const auto& [key, value] : last) {  // the last pass's keys are gone unless put again
+      if (!map.count(key)) {
+        ASSERT_FALSE(table.contains(key)) << "pass " << pass;
+      }
+    }
+    last = map;
+  }
+}
 
 TEST(TetMesh, AdjacencyAndBoundaryOfTwoGluedTets) {
   TetMesh mesh = twoTets();

@@ -26,6 +26,7 @@
 #include "tissue_cut/cut/blade.hpp"
 #include "tissue_cut/cut/split_table.hpp"
 #include "tissue_cut/cut/sweep.hpp"
+#include "tissue_cut/mesh/stamped_table.hpp"
 #include "tissue_cut/mesh/tet_grid.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 
@@ -347,13 +348,9 @@ class Cutter {
   std::vector<unsigned> quiet_seen_;
   std::vector<double> quiet_dist_;
   unsigned quiet_batch_ = 0;
-  /// Whether edge ab (a < b) is met for the first time in this batch (an edge lies in ~5 of the
-  /// batch's tets; its distance from the blade is measured once). An open-addressing set of the
-  /// batch's edges: a slot is taken where quiet_edge_stamp_ is quiet_batch_.
-  bool firstInQuietBatch(int a, int b);
-  std::vector<std::uint64_t> quiet_edge_key_;
-  std::vector<unsigned> quiet_edge_stamp_;
-  std::size_t quiet_edge_count_ = 0;
+  /// The edges (a << 32 | b, a < b) met in the batch: an edge lies in ~5 of its tets, and its
+  /// distance from the blade is measured once.
+  StampedTable<char> quiet_edges_met_;
   /// Whether this tick's sweep from `from` to `to` and its fronts leave alone every kept feature
   /// the moves since quiet_ref_, `moved` with this tick's, have reached.
   bool watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved) const;

@@ -1480,7 +1480,10 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
       const double shortest = dist[e[0]] + dist[e[1]] - 2.0 * (near + quiet_slack_);
       if (shortest > 0.0 && (pb - pa).squaredNorm() < shortest * shortest) continue;
       if (std::binary_search(cut_edges.begin(), cut_edges.end(), std::make_pair(a, b))) continue;
-      if (!firstInQuietBatch(a, b)) continue;  // kept or left out already, as it is here
+      // Met before in this batch: kept or left out already, as it would be here.
+      const std::uint64_t edge =
+          (std::uint64_t{static_cast<std::uint32_t>(a)} << 32) | static_cast<std::uint32_t>(b);
+      if (!quiet_edges_met_.put(edge, 0)) continue;
       const double d = segmentSegmentDistance(pa, pb, at.base, at.tip);
       if (d <= near) quiet_edges_.push_back({d, a, b});
     }
@@ -1505,41 +1508,7 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
 void Cutter::newQuietBatch() {
   nextStamp(&quiet_seen_, &quiet_batch_, mesh_->vertexSlots());
   growSlots(&quiet_dist_, quiet_seen_.size(), 0.0);
-  if (quiet_batch_ == 1)  // the stamps started over: no slot is this batch's
-    std::fill(quiet_edge_stamp_.begin(), quiet_edge_stamp_.end(), 0u);
-  quiet_edge_count_ = 0;
-}
-
-bool Cutter::firstInQuietBatch(int a, int b) {
-  const std::uint64_t key = (std::uint64_t(std::uint32_t(a)) << 32) | std::uint32_t(b);
-  auto slotOf = [&](std::uint64_t k) {
-    // Fibonacci hashing onto the table's power-of-two size.
-    const int bits = __builtin_ctzll(quiet_edge_key_.size());
-    return std::size_t((k * 0x9E3779B97F4A7C15ull) >> (64 - bits));
-  };
-  if (2 * (quiet_edge_count_ + 1) > quiet_edge_key_.size()) {
-    // At most half full: twice the size, the batch's edges placed again.
-    std::vector<std::uint64_t> keys;
-    for (std::size_t i = 0; i < quiet_edge_key_.size(); ++i)
-      if (quiet_edge_stamp_[i] == quiet_batch_) keys.push_back(quiet_edge_key_[i]);
-    const std::size_t size = std::max<std::size_t>(1024, 2 * quiet_edge_key_.size());
-    quiet_edge_key_.assign(size, 0);
-    quiet_edge_stamp_.assign(size, 0u);
-    for (const std::uint64_t k : keys) {
-      std::size_t i = slotOf(k);
-      while (quiet_edge_stamp_[i] == quiet_batch_) i = (i + 1) & (size - 1);
-      quiet_edge_stamp_[i] = quiet_batch_;
-      quiet_edge_key_[i] = k;
-    }
-  }
-  const std::size_t mask = quiet_edge_key_.size() - 1;
-  std::size_t i = slotOf(key);
-  for (; quiet_edge_stamp_[i] == quiet_batch_; i = (i + 1) & mask)
-    if (quiet_edge_key_[i] == key) return false;
-  quiet_edge_stamp_[i] = quiet_batch_;
-  quiet_edge_key_[i] = key;
-  ++quiet_edge_count_;
-  return true;
+  quiet_edges_met_.begin();
 }
 
 void Cutter::sortQuiet() {

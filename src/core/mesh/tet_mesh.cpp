@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/mesh/stamped_table.hpp"
 
 namespace tissue_cut {
 
@@ -68,52 +69,17 @@ void ChangeRecord::append(const ChangeRecord& later) { append(later, 256); }
 
 namespace {
 
-// append()'s notes: tet slots, each with a value (a place, or an origin), in an open-addressing
-// table at most half full. A table over all tet slots (two arrays of 26k entries for the 20k
-// organ) cost its thread's first long record 0.6-0.7 ms of page faults, in the middle of a tick.
-struct SlotNotes {
-  std::vector<int> key;
-  std::vector<long long> value;
-  std::vector<unsigned> stamp;  // a place is taken in this pass where stamp == pass
-  unsigned pass = 0;
-  int shift = 64;
+// A tet slot as a key of append()'s notes.
+std::uint64_t slotKey(int t) { return static_cast<std::uint32_t>(t); }
 
-  // A new pass noting up to `count` slots.
-  void begin(std::size_t count) {
-    std::size_t size = 64;
-    while (size < 2 * count) size *= 2;
-    if (size > key.size()) {
-      key.assign(size, 0);
-      value.assign(size, 0);
-      stamp.assign(size, 0u);
-      pass = 0;
-    }
-    shift = 64 - __builtin_ctzll(key.size());
-    if (++pass == 0) {
-      std::fill(stamp.begin(), stamp.end(), 0u);
-      pass = 1;
-    }
-  }
-  // t's place: where it is noted, or the free place where it would be (Fibonacci hashing: a
-  // record's new tets have consecutive slots, which the slot itself as the hash would pile into
-  // one run).
-  std::size_t placeOf(int t) const {
-    const std::size_t mask = key.size() - 1;
-    std::size_t i = static_cast<std::size_t>(
-        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(t)) * 0x9E3779B97F4A7C15ull) >>
-        shift);
-    while (stamp[i] == pass && key[i] != t) i = (i + 1) & mask;
-    return i;
-  }
-  bool noted(int t) const { return stamp[placeOf(t)] == pass; }
-  long long valueOf(int t) const { return value[placeOf(t)]; }
-  void note(int t, long long v) {
-    const std::size_t i = placeOf(t);
-    stamp[i] = pass;
-    key[i] = t;
-    value[i] = v;
-  }
-};
+// append()'s notes, one table a thread, kept between calls. (A table over every tet slot, as
+// these notes were, cost its thread's first long record 0.6-0.7 ms of page faults in the middle
+// of a tick on the 20k organ.) Only long records reach it: finding a thread_local in this shared
+// library is a call.
+StampedTable<long long>& appendNotes() {
+  thread_local StampedTable<long long> notes;
+  return notes;
+}
 
 }  // namespace
 
@@ -123,14 +89,15 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   // records composed are small next to a tick's (one collapse, flip or move appended to what the
   // tick did so far): short lists are scanned; for longer ones (a tick's record of hundreds of
   // tets against a collapse's dozen removed, most of them not added here) each slot's place is
-  // noted first in a table (thread-local, kept between calls).
-  thread_local SlotNotes notes;
+  // noted first in a table (appendNotes()).
+  StampedTable<long long>* notes = nullptr;  // found when first needed
   const std::size_t n_added = added_tets.size();
   const bool scan_added = later.removed_tets.size() * n_added <= scan_limit;
   if (!scan_added) {
-    notes.begin(n_added);
+    notes = &appendNotes();
+    notes->begin(n_added);
     for (std::size_t i = 0; i < n_added; ++i)
-      notes.note(added_tets[i], static_cast<long long>(i));  // the last place, as the scan finds
+      notes->put(slotKey(added_tets[i]), static_cast<long long>(i));  // the last, as scanned
   }
   // later's removed slots and what each continued, in later.removed_tets' order
   std::vector<std::pair<int, int>> origin;
@@ -144,8 +111,8 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
           i = k;
           break;
         }
-    } else if (notes.noted(t)) {
-      i = static_cast<std::size_t>(notes.valueOf(t));
+    } else if (notes->contains(slotKey(t))) {
+      i = static_cast<std::size_t>(notes->at(slotKey(t)));
     }
     if (i < n_added && (cancelled.empty() || !cancelled[i])) {
       if (cancelled.empty()) cancelled.assign(n_added, 0);
@@ -169,9 +136,10 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   }
   const bool scan_origin = later.added_tets.size() * origin.size() <= scan_limit;
   if (!scan_origin) {
-    notes.begin(origin.size());
+    if (!notes) notes = &appendNotes();
+    notes->begin(origin.size());
     for (const auto& [t, o] : origin)
-      if (!notes.noted(t)) notes.note(t, o);  // the first, as the scan finds
+      if (!notes->contains(slotKey(t))) notes->put(slotKey(t), o);  // the first, as scanned
   }
   for (std::size_t i = 0; i < later.added_tets.size(); ++i) {
     int from = later.added_from[i];
@@ -182,8 +150,8 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
             from = o;
             break;
           }
-      } else if (notes.noted(from)) {
-        from = static_cast<int>(notes.valueOf(from));
+      } else if (notes->contains(slotKey(from))) {
+        from = static_cast<int>(notes->at(slotKey(from)));
       }
     }
     added_tets.push_back(later.added_tets[i]);
