@@ -160,7 +160,8 @@ class Cutter {
   bool conforming(const std::vector<Coarse>& around, const std::vector<int>& verts) const;
   void registerEdgePoint(int a, int b, double s, ChangeRecord* change);
   void registerFacePoint(const std::array<int, 3>& face, const Vec3& weights, ChangeRecord* change);
-  void trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& normal);
+  void trySnap(int v, const std::array<Triangle, 2>& tris,
+               const std::array<PreparedTriangle, 2>& prepared, const Vec3& normal);
   bool woundFacing(int v, const Vec3& normal) const;
   /// A crossing `distance` from v stands for v: v lies on a cut (within the wound's band).
   bool nearWound(int v, double distance, const Vec3& normal) const;

@@ -18,14 +18,31 @@ std::array<Triangle, 2> sweptTriangles(const BladeSegment& from, const BladeSegm
 /// Area of a triangle [m^2].
 double triangleArea(const Triangle& t);
 
+/// A triangle with its normal n = (t[1] - t[0]) x (t[2] - t[0]) and |n|, for many tests against
+/// one triangle (a tick's swept triangles): the tests below take the same values either way.
+struct PreparedTriangle {
+  explicit PreparedTriangle(const Triangle& triangle)
+      : t(triangle), n((t[1] - t[0]).cross(t[2] - t[0])), len(n.norm()) {}
+  Triangle t;
+  Vec3 n;
+  double len;
+};
+
 /// Where segment p->q crosses triangle t: true with the segment parameter s in [0, 1] and the
 /// barycentric coordinates of the crossing, when p and q lie strictly on opposite sides of the
 /// triangle's plane and the crossing is inside the triangle grown by `margin` (barycentric).
-bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const Triangle& t, double margin,
-                            double* s, Vec3* barycentric);
+bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const PreparedTriangle& t,
+                            double margin, double* s, Vec3* barycentric);
+inline bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const Triangle& t, double margin,
+                                   double* s, Vec3* barycentric) {
+  return segmentCrossesTriangle(p, q, PreparedTriangle(t), margin, s, barycentric);
+}
 
 /// True when x is within `distance` [m] of the triangle's plane and projects inside it.
-bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance);
+bool pointNearTriangle(const Vec3& x, const PreparedTriangle& t, double distance);
+inline bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance) {
+  return pointNearTriangle(x, PreparedTriangle(t), distance);
+}
 
 /// A lower bound of the distance [m] between segment base->tip and the tet with these corners
 /// (separating axes: coordinate axes, the segment's, towards the tet, the tet's face normals);

@@ -594,7 +594,8 @@ bool Cutter::nearTrailingLine(const Vec3& x, const std::array<Triangle, 2>& tris
   return (x - base1).dot(motion) <= 0.0;
 }
 
-void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& normal) {
+void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris,
+                     const std::array<PreparedTriangle, 2>& prepared, const Vec3& normal) {
   if (onCut(v)) return;
   const Vec3& x = mesh_->current(v);
   // Where a trembling blade turns from one tick to the next, the two ticks' quads meet along the
@@ -603,13 +604,13 @@ void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris, const Vec3& nor
   // line the blade came from. Only a vertex not on a wound: a wound's own points there are
   // followed by the band below.
   const bool at_crease = !onWound(v) && nearTrailingLine(x, tris);
-  if (!at_crease && !pointNearTriangle(x, tris[0], snap_distance_) &&
-      !pointNearTriangle(x, tris[1], snap_distance_)) {
+  if (!at_crease && !pointNearTriangle(x, prepared[0], snap_distance_) &&
+      !pointNearTriangle(x, prepared[1], snap_distance_)) {
     // A point of an earlier cut whose wall runs along this sweep is taken as lying on it within
     // a wider band: the blade is moving inside that wound (which the tissue has moved since).
     if (!onWound(v) ||
-        (!pointNearTriangle(x, tris[0], wound_snap_distance_) &&
-         !pointNearTriangle(x, tris[1], wound_snap_distance_)) ||
+        (!pointNearTriangle(x, prepared[0], wound_snap_distance_) &&
+         !pointNearTriangle(x, prepared[1], wound_snap_distance_)) ||
         !woundFacing(v, normal))
       return;
   }
@@ -1206,6 +1207,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   const auto tris = sweptTriangles(from, to);
   const double tiny = 1e-12 * mean_edge_ * mean_edge_;
   if (triangleArea(tris[0]) <= tiny && triangleArea(tris[1]) <= tiny) return;
+  const std::array<PreparedTriangle, 2> prepared{PreparedTriangle(tris[0]),
+                                                 PreparedTriangle(tris[1])};
   Vec3 lo = from.base.cwiseMin(from.tip).cwiseMin(to.base).cwiseMin(to.tip);
   Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
   lo.array() -= snap_distance_;
@@ -1333,7 +1336,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       vertex_seen_[v] = seen_stamp_;
       const auto& at = axis_values_[axis_slot_[v]];  // a corner: reach() took its values
       if (std::abs(at[8]) > band && std::abs(at[9]) > band) continue;
-      trySnap(v, tris, normal);
+      trySnap(v, tris, prepared, normal);
     }
   // An edge can cross the swept quad only where its box meets the quad's box, and only when its
   // ends lie strictly on opposite sides of a usable triangle's plane (segmentCrossesTriangle).
@@ -1385,11 +1388,10 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   for (const auto& [a, b] : edges) {  // mayCross() held; registering points changes none of it
     for (int k = 0; k < 2; ++k) {
       if (!has_area[k]) continue;
-      const Triangle& tri = tris[k];
       double s;
       Vec3 bary;
       const Vec3 &pa = mesh_->current(a), &pb = mesh_->current(b);
-      if (segmentCrossesTriangle(pa, pb, tri, 1e-9, &s, &bary)) {
+      if (segmentCrossesTriangle(pa, pb, prepared[k], 1e-9, &s, &bary)) {
         const Vec3 x = pa + s * (pb - pa);
         int standing = -1;
         if (nearFront(x)) break;
@@ -1581,17 +1583,14 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
   const double reached = moved + quiet_slack_;
   const auto tris = sweptTriangles(from, to);
   const double tiny = 1e-12 * mean_edge_ * mean_edge_;
-  std::array<Vec3, 2> n;
-  std::array<double, 2> len;
-  for (int k = 0; k < 2; ++k) {
-    n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
-    len[k] = n[k].norm();
-  }
+  const std::array<PreparedTriangle, 2> prepared{PreparedTriangle(tris[0]),
+                                                 PreparedTriangle(tris[1])};
   auto nearPlane = [&](int k, const Vec3& x, double band) {
-    return !(std::abs(n[k].dot(x - tris[k][0])) > band * len[k] * (1.0 + 1e-9));
+    return !(std::abs(prepared[k].n.dot(x - tris[k][0])) >
+             band * prepared[k].len * (1.0 + 1e-9));
   };
-  Vec3 normal = n[0];
-  if (normal.norm() <= tiny) normal = n[1];
+  Vec3 normal = prepared[0].n;
+  if (normal.norm() <= tiny) normal = prepared[1].n;
   normal.normalize();
   for (const QuietVertex& q : quiet_verts_) {
     if (q.at > reached) break;
@@ -1599,14 +1598,14 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     if (onCut(v) || !mesh_->vertexAlive(v)) continue;  // snapped since: only looks
     const Vec3& x = mesh_->current(v);
     if ((!onWound(v) && nearTrailingLine(x, tris)) ||
-        (nearPlane(0, x, snap_distance_) && pointNearTriangle(x, tris[0], snap_distance_)) ||
-        (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, tris[1], snap_distance_)))
+        (nearPlane(0, x, snap_distance_) && pointNearTriangle(x, prepared[0], snap_distance_)) ||
+        (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, prepared[1], snap_distance_)))
       return false;
     if (onWound(v) &&
         ((nearPlane(0, x, wound_snap_distance_) &&
-          pointNearTriangle(x, tris[0], wound_snap_distance_)) ||
+          pointNearTriangle(x, prepared[0], wound_snap_distance_)) ||
          (nearPlane(1, x, wound_snap_distance_) &&
-          pointNearTriangle(x, tris[1], wound_snap_distance_))) &&
+          pointNearTriangle(x, prepared[1], wound_snap_distance_))) &&
         woundFacing(v, normal))
       return false;
   }
@@ -1618,9 +1617,10 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     const Vec3 &pa = mesh_->current(q.a), &pb = mesh_->current(q.b);
     for (int k = 0; k < 2; ++k) {
       // Ends strictly on both sides of the plane, or no crossing.
-      const double da = n[k].dot(pa - tris[k][0]), db = n[k].dot(pb - tris[k][0]);
+      const double da = prepared[k].n.dot(pa - tris[k][0]);
+      const double db = prepared[k].n.dot(pb - tris[k][0]);
       if (((da > 0 && db < 0) || (da < 0 && db > 0)) &&
-          segmentCrossesTriangle(pa, pb, tris[k], 1e-9, &s, &bary))
+          segmentCrossesTriangle(pa, pb, prepared[k], 1e-9, &s, &bary))
         return false;
     }
   }

@@ -23,10 +23,11 @@ Vec3 barycentric(const Vec3& x, const Triangle& t, const Vec3& n) {
 
 }  // namespace
 
-bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const Triangle& t, double margin,
-                            double* s, Vec3* bary) {
-  const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
-  const double len = n.norm();
+bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const PreparedTriangle& prepared,
+                            double margin, double* s, Vec3* bary) {
+  const Triangle& t = prepared.t;
+  const Vec3& n = prepared.n;
+  const double len = prepared.len;
   if (!(len > 0)) return false;
   const double dp = n.dot(p - t[0]) / len, dq = n.dot(q - t[0]) / len;
   if (!((dp > 0 && dq < 0) || (dp < 0 && dq > 0))) return false;
@@ -56,9 +57,10 @@ double segmentSegmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, co
                    distanceToSegment(q0, p0, p1), distanceToSegment(q1, p0, p1)});
 }
 
-bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance) {
-  const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
-  const double len = n.norm();
+bool pointNearTriangle(const Vec3& x, const PreparedTriangle& prepared, double distance) {
+  const Triangle& t = prepared.t;
+  const Vec3& n = prepared.n;
+  const double len = prepared.len;
   if (!(len > 0)) return false;
   const double d = n.dot(x - t[0]) / len;
   if (std::abs(d) > distance) return false;
