@@ -441,9 +441,10 @@ TEST(SweepGeometry, SegmentTetGapIsALowerBoundOfTheDistanceAndATightOne) {
 }
 
 // A pending tet keeps its face planes while its corners stay where they were (finalizeLeft()
-// asks each tick whether the blade is still inside). The answers must be segmentMeetsTet()'s to
-// the bit: on a tet that stays, and on one whose corners move (the planes made again), for
-// segments that miss it, cross it, end inside it or graze a face within the tolerance.
+// asks each tick whether the blade is still inside). The answers must be those of planes made
+// for each question (segmentMeetsTet()): on a tet that stays, and on one whose corners move (the
+// planes made again), for segments that miss it, cross it, end inside it or graze a face within
+// the tolerance.
 TEST(SweepGeometry, KeptTetPlanesAnswerAsSegmentMeetsTet) {
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> corner(-1.0, 1.0), end(-2.0, 2.0), nudge(-0.3, 0.3);
@@ -475,6 +476,15 @@ TEST(SweepGeometry, KeptTetPlanesAnswerAsSegmentMeetsTet) {
   EXPECT_GT(meets, 2000);
   EXPECT_GT(misses, 2000);
   EXPECT_GT(moved, 500);
+  // And the answers themselves, on the unit corner tet: inside, through, beside, far, and just
+  // below its face z = 0 (within a tolerance of 1e-3, not of 1e-4).
+  const Vec3 o(0, 0, 0), x(1, 0, 0), y(0, 1, 0), z(0, 0, 1);
+  EXPECT_TRUE(segmentMeetsTet(Vec3(0.1, 0.1, 0.1), Vec3(0.2, 0.2, 0.2), o, x, y, z, 0.0));
+  EXPECT_TRUE(segmentMeetsTet(Vec3(-1, 0.1, 0.1), Vec3(2, 0.1, 0.1), o, x, y, z, 0.0));
+  EXPECT_FALSE(segmentMeetsTet(Vec3(-1, 0.6, 0.6), Vec3(2, 0.6, 0.6), o, x, y, z, 0.0));
+  EXPECT_FALSE(segmentMeetsTet(Vec3(2, 2, 2), Vec3(3, 3, 3), o, x, y, z, 1e-3));
+  EXPECT_TRUE(segmentMeetsTet(Vec3(0.2, 0.2, -5e-4), Vec3(0.3, 0.2, -9e-4), o, x, y, z, 1e-3));
+  EXPECT_FALSE(segmentMeetsTet(Vec3(0.2, 0.2, -5e-4), Vec3(0.3, 0.2, -9e-4), o, x, y, z, 1e-4));
 }
 
 // The sweep looks again at a tet only once the blade's moves and the tissue's (as told) could

@@ -57,8 +57,8 @@ bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b,
                      const Vec3& d, double tolerance);
 
 /// segmentMeetsTet() for a tet asked again and again (a tet the blade is inside, each tick): its
-/// face planes are kept while its corners stay where they were, and the answer is the same to
-/// the bit.
+/// face planes are kept while its corners stay where they were (segmentMeetsTet() makes them for
+/// one question), and the answer is the same to the bit.
 class TetPlanes {
  public:
   bool meets(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,

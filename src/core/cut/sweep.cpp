@@ -117,28 +117,14 @@ double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4
 
 bool segmentMeetsTet(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
                      const Vec3& d, double tolerance) {
-  // Clip the segment's parameter range against the four face planes (outward normals).
-  const Vec3 v[4] = {a, b, c, d};
-  const double orientation = signedVolume(a, b, c, d) >= 0 ? 1.0 : -1.0;
-  double lo = 0.0, hi = 1.0;
-  for (const auto& f : kTetFace) {
-    Vec3 n = orientation * (v[f[1]] - v[f[0]]).cross(v[f[2]] - v[f[0]]);
-    const double len = n.norm();
-    if (!(len > 0)) continue;
-    n /= len;
-    const double dp = n.dot(p - v[f[0]]) - tolerance;  // inside when <= 0
-    const double dq = n.dot(q - v[f[0]]) - tolerance;
-    if (dp > 0 && dq > 0) return false;
-    if (dp > 0) lo = std::max(lo, dp / (dp - dq));
-    if (dq > 0) hi = std::min(hi, dp / (dp - dq));
-    if (lo > hi) return false;
-  }
-  return true;
+  TetPlanes planes;  // made for this one question
+  return planes.meets(p, q, a, b, c, d, tolerance);
 }
 
 bool TetPlanes::meets(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c,
                       const Vec3& d, double tolerance) {
-  // The same arithmetic as segmentMeetsTet(), with the planes made only when the corners moved.
+  // Clip the segment's parameter range against the four face planes (outward unit normals),
+  // made only when the corners moved.
   const Vec3 v[4] = {a, b, c, d};
   if (!valid_ || corner_[0] != a || corner_[1] != b || corner_[2] != c || corner_[3] != d) {
     const double orientation = signedVolume(a, b, c, d) >= 0 ? 1.0 : -1.0;
