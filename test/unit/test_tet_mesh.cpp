@@ -106,12 +106,10 @@ TEST(StampedTable, AnswersAsAMapThroughPassesAndGrowth) {
     std::unordered_map<std::uint64_t, long long> map;
     const int puts = static_cast<int>(rng() % 600);
     for (int k = 0; k < puts; ++k) {
-      std::uint64_t key;
-      switch (k % 3) {
-        case 0: key = static_cast<std::uint64_t>(pass * 1000 + k); break;  // consecutive
-        case 1: key = static_cast<std::uint64_t>(rng() % 64) * 1024; break;  // one residue
-        default: key = (std::uint64_t{rng()} << 32) | rng(); break;
-      }
+      // Consecutive keys, keys of one residue, and keys anywhere.
+      const std::uint64_t key = k % 3 == 0   ? static_cast<std::uint64_t>(pass * 1000 + k)
+                                : k % 3 == 1 ? static_cast<std::uint64_t>(rng() % 64) * 1024
+                                             : (std::uint64_t{rng()} << 32) | rng();
       const long long value = static_cast<long long>(rng());
       EXPECT_EQ(table.put(key, value), map.count(key) == 0) << "pass " << pass;
       map[key] = value;

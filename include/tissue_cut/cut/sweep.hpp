@@ -31,8 +31,8 @@ struct PreparedTriangle {
 /// Where segment p->q crosses triangle t: true with the segment parameter s in [0, 1] and the
 /// barycentric coordinates of the crossing, when p and q lie strictly on opposite sides of the
 /// triangle's plane and the crossing is inside the triangle grown by `margin` (barycentric).
-bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const PreparedTriangle& t,
-                            double margin, double* s, Vec3* barycentric);
+bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const PreparedTriangle& t, double margin,
+                            double* s, Vec3* barycentric);
 inline bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const Triangle& t, double margin,
                                    double* s, Vec3* barycentric) {
   return segmentCrossesTriangle(p, q, PreparedTriangle(t), margin, s, barycentric);

@@ -1586,8 +1586,7 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
   const std::array<PreparedTriangle, 2> prepared{PreparedTriangle(tris[0]),
                                                  PreparedTriangle(tris[1])};
   auto nearPlane = [&](int k, const Vec3& x, double band) {
-    return !(std::abs(prepared[k].n.dot(x - tris[k][0])) >
-             band * prepared[k].len * (1.0 + 1e-9));
+    return !(std::abs(prepared[k].n.dot(x - tris[k][0])) > band * prepared[k].len * (1.0 + 1e-9));
   };
   Vec3 normal = prepared[0].n;
   if (normal.norm() <= tiny) normal = prepared[1].n;
