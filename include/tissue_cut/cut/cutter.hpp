@@ -344,7 +344,7 @@ class Cutter {
                 const std::vector<std::pair<int, int>>& cut_edges);
   /// Starts a batch of quietTet() calls (one state of the mesh and the cut): each vertex is
   /// looked at once in a batch (quiet_seen_[v] == quiet_batch_ once it was; its distance from
-  /// quiet_ref_'s blade is then in quiet_dist_[v]).
+  /// quiet_ref_'s blade is then in quiet_dist_[v]), and each edge once (quiet_edges_met_).
   void newQuietBatch();
   std::vector<unsigned> quiet_seen_;
   std::vector<double> quiet_dist_;

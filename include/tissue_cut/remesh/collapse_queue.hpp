@@ -110,7 +110,6 @@ class CollapseQueue {
     TetVerts verts;   // the tet when queued (its slot may be reused)
     long long stamp;  // the sum of its vertices' stamps when queued
     int phase = kCollapsePhase;  // where a tet stopped at the budget resumes
-    bool operator<(const Entry& o) const { return quality > o.quality; }  // min-heap
   };
   void queueTet(int t);
   long long stampOf(int a, int b) const;
