@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -349,6 +350,46 @@ TEST(Physics, HundredTimesStifferStaysBoundedImplicitly) {
   for (int v = 0; v < mesh.vertexSlots(); ++v) {
     ASSERT_TRUE(mesh.current(v).allFinite());
     EXPECT_LT((mesh.current(v) - mesh.rest(v)).norm(), 1e-3);
+  }
+}
+
+TEST(Physics, AnImplicitStepMeetingANonFiniteStateRollsBack) {
+  // The implicit step's last pass checks the state as it updates it: every live vertex's
+  // position and velocity, fixed ones included. A fixed vertex whose springs all end on fixed
+  // vertices takes part in no product (those springs are left out), so only that check sees its
+  // position go non-finite.
+  const MeshData block = makeBlock();
+  MassSpringParams p = cantilever(1e5);
+  p.fixed_band = 0.008;  // the two layers of vertices nearest x = -0.05
+  for (const bool fixed_one : {true, false}) {
+    SCOPED_TRACE(fixed_one ? "a fixed vertex's position" : "a free vertex's velocity");
+    TetMesh mesh(block.V, block.T);
+    MassSpring physics(&mesh, p);
+    for (int k = 0; k < 5; ++k) ASSERT_EQ(physics.step(1e-3), "");
+    int broken = -1;
+    for (int v = 0; v < mesh.vertexSlots() && broken < 0; ++v) {
+      if (physics.fixed(v) != fixed_one) continue;
+      bool inner = true;
+      for (int t : mesh.vertexTets(v))
+        for (int u : mesh.tet(t)) inner = inner && physics.fixed(u) == fixed_one;
+      if (inner || !fixed_one) broken = v;
+    }
+    ASSERT_GE(broken, 0);
+    const std::vector<Vec3> before = mesh.currentPositions();
+    if (fixed_one) {
+      mesh.current(broken).x() = std::numeric_limits<double>::infinity();
+    } else {
+      mesh.velocity(broken).y() = std::numeric_limits<double>::quiet_NaN();
+    }
+    const std::string warning = physics.step(1e-3);
+    EXPECT_NE(warning.find("non-finite state"), std::string::npos) << warning;
+    EXPECT_EQ(physics.instabilities(), 1);
+    // Rolled back to the state before the step (the broken vertex too), and at rest.
+    for (int v = 0; v < mesh.vertexSlots(); ++v) {
+      ASSERT_TRUE(mesh.velocity(v).isZero()) << v;
+      if (v == broken) continue;
+      ASSERT_EQ(mesh.current(v), before[v]) << v;
+    }
   }
 }
 

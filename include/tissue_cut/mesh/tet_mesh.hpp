@@ -137,6 +137,8 @@ class TetMesh {
   int numTets() const { return num_tets_; }
   bool vertexAlive(int v) const { return vertex_alive_[v] != 0; }
   bool tetAlive(int t) const { return tet_alive_[t] != 0; }
+  /// vertexAlive() for every vertex slot, nonzero where alive (for loops over all slots).
+  const std::vector<unsigned char>& vertexAliveFlags() const { return vertex_alive_; }
   int reoriented() const { return reoriented_; }
 
   // --- geometry [m], [m/s]

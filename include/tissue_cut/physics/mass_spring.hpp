@@ -236,8 +236,12 @@ class MassSpring {
   long long local_presolves_ = 0;
   /// The parts' shares of sum k of the last parallel loop, added in part order.
   double partialSum(int k) const;
+  /// Leaves each part's fastest live vertex's speed in partial_[part].sum[2] and whether all its
+  /// live vertices' positions and velocities are finite (1 or 0) in sum[3], as scanSpeeds() does.
   bool stepImplicit(double dt);
   void stepSemiImplicit(double dt);
+  /// The fastest speed and finiteness of each part's live vertices, into partial_ (see above).
+  void scanSpeeds();
 
   TetMesh* mesh_;
   MassSpringParams params_;

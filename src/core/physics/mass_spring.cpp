@@ -991,8 +991,10 @@ bool MassSpring::stepImplicit(double dt) {
     const Vec3* force = b_.data();
     const double* inertia = inertia_.data();
     const double impulse = dt / mass_damping_;
+    const unsigned char* fixed = fixed_.data();
+    const unsigned char* alive = mesh_->vertexAliveFlags().data();
     for (int v = begin; v < end; ++v) {
-      held[v] = fixed_[v] || !mesh_->vertexAlive(v);
+      held[v] = fixed[v] || !alive[v];
       if (held[v]) {
         dv[v].setZero();
       } else if (history == 0) {
@@ -1025,14 +1027,32 @@ bool MassSpring::stepImplicit(double dt) {
     const unsigned char* held = held_.data();
     const int* cluster_of = cluster_of_.data();
     Block* cluster_diag = cluster_diag_.data();
+    const unsigned char* alive_at = mesh_->vertexAliveFlags().data();
+    const Vec3* dv = dv_.data();
+    Vec3* b_out = b_.data();
+    Block* inv_diag = inv_diag_.data();
+    Vec3* r = r_.data();
+    Vec3* z = z_.data();
+    Vec3* p = p_.data();
+    // The first part's sums through pointers of their own (the others' are added after, in the
+    // same order): through acc_[q] each row reloaded the buffers' addresses after every store.
+    Vec3* acc0 = acc_[0].data();
+    Vec3* start0 = start_acc_[0].data();
+    Block* diag0 = diag_acc_[0].data();
     double weight2 = 0.0, b_norm = 0.0, rz = 0.0, rr = 0.0;
     for (int v = begin; v < end; ++v) {
-      const bool alive = mesh_->vertexAlive(v);
+      const bool alive = alive_at[v] != 0;
       Vec3 b = alive ? Vec3(mass[v] * (gravity - damping * velocity[v])) : Vec3::Zero();
       const double md = mass_damping * inertia[v];
       Block diag{md, 0.0, 0.0, md, 0.0, md};
-      Vec3 a = md * dv_[v];
-      for (int q = 0; q < parts; ++q) {
+      Vec3 a = md * dv[v];
+      b += acc0[v];
+      a += start0[v];
+      addTo(&diag, diag0[v]);
+      acc0[v].setZero();
+      start0[v].setZero();
+      diag0[v] = {0, 0, 0, 0, 0, 0};
+      for (int q = 1; q < parts; ++q) {
         b += acc_[q][v];
         a += start_acc_[q][v];
         addTo(&diag, diag_acc_[q][v]);
@@ -1040,18 +1060,19 @@ bool MassSpring::stepImplicit(double dt) {
         start_acc_[q][v].setZero();
         diag_acc_[q][v] = {0, 0, 0, 0, 0, 0};
       }
-      const Vec3 bv = held[v] ? Vec3::Zero() : Vec3(dt * b);
+      const bool held_v = held[v] != 0;
+      const Vec3 bv = held_v ? Vec3::Zero() : Vec3(dt * b);
       if (cluster_of[v] >= 0) cluster_diag[v] = diag;  // see factorClusters()
       // Block-Jacobi: the vertex's own 3x3 block of A, inverted; zero where the row is held.
-      if (held[v] || !invert(&diag)) diag = {0, 0, 0, 0, 0, 0};
-      const Vec3 rv = held[v] ? Vec3::Zero() : Vec3(bv - a);
+      if (held_v || !invert(&diag)) diag = {0, 0, 0, 0, 0, 0};
+      const Vec3 rv = held_v ? Vec3::Zero() : Vec3(bv - a);
       const Vec3 zv = apply(diag, rv);
-      b_[v] = bv;
-      inv_diag_[v] = diag;
-      r_[v] = rv;
-      z_[v] = zv;
-      p_[v] = zv;
-      if (!held[v]) weight2 += (mass[v] * dt) * (mass[v] * dt);
+      b_out[v] = bv;
+      inv_diag[v] = diag;
+      r[v] = rv;
+      z[v] = zv;
+      p[v] = zv;
+      if (!held_v) weight2 += (mass[v] * dt) * (mass[v] * dt);
       b_norm += bv.squaredNorm();
       rz += rv.dot(zv);
       rr += rv.squaredNorm();
@@ -1085,13 +1106,16 @@ bool MassSpring::stepImplicit(double dt) {
       const double* inertia = inertia_.data();
       const unsigned char* held = held_.data();
       const double mass_damping = mass_damping_;
+      Vec3* acc0 = acc_[0].data();
       double pap = 0.0;
       for (int v = begin; v < end; ++v) {
         // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), the springs' terms summed
         // part by part. Held rows (fixed vertices) are zero; dead vertices have no mass and no
         // springs.
         Vec3 sum = (mass_damping * inertia[v]) * p[v];
-        for (int q = 0; q < parts; ++q) {
+        sum += acc0[v];  // as in the set-up: the first part's sums through a pointer of its own
+        acc0[v].setZero();
+        for (int q = 1; q < parts; ++q) {
           sum += acc_[q][v];
           acc_[q][v].setZero();
         }
@@ -1154,17 +1178,24 @@ bool MassSpring::stepImplicit(double dt) {
     const Vec3* warm_prev = warm_prev_.data();
     const Vec3* warm_prev2 = warm_prev2_.data();
     unsigned char* quadratic_at = quadratic_at_.data();
+    const unsigned char* alive = mesh_->vertexAliveFlags().data();
+    const unsigned char* fixed = fixed_.data();
+    const Vec3* dv = dv_.data();
+    Vec3* velocity = mesh_->velocities().data();
+    Vec3* current = mesh_->currentPositions().data();
     const bool compare = history >= 3;
     double linear_miss = 0.0, quadratic_miss = 0.0;
+    double worst2 = 0.0, finite = 1.0;  // as scanSpeeds() finds them, in the same pass
     for (int v = begin; v < end; ++v) {
-      if (!mesh_->vertexAlive(v)) continue;
-      if (fixed_[v]) {
-        mesh_->velocity(v).setZero();
+      if (!alive[v]) continue;
+      if (fixed[v]) {
+        velocity[v].setZero();
+        if (!current[v].allFinite()) finite = 0.0;
         continue;
       }
       const Vec3 linear = linearGuess(warm[v], warm_prev[v]);
       const Vec3 curve = curvature(warm[v], warm_prev[v], warm_prev2[v]);
-      const Vec3 miss = dv_[v] - linear;
+      const Vec3 miss = dv[v] - linear;
       const double qm = (miss - curve).squaredNorm(), lm = miss.squaredNorm();
       quadratic_at[v] = !compare                    ? kLinearCloser
                         : qm * kClearlyCloser2 < lm ? kQuadraticCloser
@@ -1172,11 +1203,15 @@ bool MassSpring::stepImplicit(double dt) {
                                                     : kEitherCloser;
       linear_miss += lm;
       quadratic_miss += qm;
-      mesh_->velocity(v) += dv_[v];
-      mesh_->current(v) += dt * mesh_->velocity(v);
+      velocity[v] += dv[v];
+      current[v] += dt * velocity[v];
+      if (!(current[v].allFinite() && velocity[v].allFinite())) finite = 0.0;
+      worst2 = std::max(worst2, velocity[v].squaredNorm());
     }
     partial_[part].sum[0] = linear_miss;
     partial_[part].sum[1] = quadratic_miss;
+    partial_[part].sum[2] = std::sqrt(worst2);
+    partial_[part].sum[3] = finite;
   });
   quadratic_next_ = history >= 3 && partialSum(1) < partialSum(0);
   warm_history_ = std::min(history + 1, 3);
@@ -1222,11 +1257,15 @@ std::string MassSpring::step(double dt) {
   // The positions to roll back to; the mass and the live vertices, for the inertia floor.
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
+    const Vec3* x = mesh_->currentPositions().data();
+    const unsigned char* alive_at = mesh_->vertexAliveFlags().data();
+    const double* vertex_mass = mass_.data();
+    Vec3* x0 = x0_.data();
     double mass = 0.0, alive = 0.0;
     for (int v = begin; v < end; ++v) {
-      x0_[v] = mesh_->current(v);
-      if (!mesh_->vertexAlive(v)) continue;
-      mass += mass_[v];
+      x0[v] = x[v];
+      if (!alive_at[v]) continue;
+      mass += vertex_mass[v];
       alive += 1.0;
     }
     partial_[part].sum[0] = mass;
@@ -1243,38 +1282,28 @@ std::string MassSpring::step(double dt) {
   const double floor = alive > 0 ? kMinInertia * total / alive : 0.0;
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
+    const unsigned char* alive_at = mesh_->vertexAliveFlags().data();
+    const double* mass = mass_.data();
+    double* inertia = inertia_.data();
     double added = 0.0;
     for (int v = begin; v < end; ++v) {
-      inertia_[v] = mesh_->vertexAlive(v) ? std::max(mass_[v], floor) : 0.0;
-      added += inertia_[v] - mass_[v];  // dead vertices have no mass
+      inertia[v] = alive_at[v] ? std::max(mass[v], floor) : 0.0;
+      added += inertia[v] - mass[v];  // dead vertices have no mass
     }
     partial_[part].sum[0] = added;
   });
   added_inertia_ = total > 0 ? partialSum(0) / total : 0.0;
   if (params_.implicit) {
-    stepImplicit(dt);
+    stepImplicit(dt);  // its last pass scans the speeds too
   } else {
     stepSemiImplicit(dt);
+    scanSpeeds();
   }
-  // The fastest vertex, and whether all are finite.
-  parallel([&](int part) {
-    const auto [begin, end] = rangeOf(n, part);
-    const Vec3* x = mesh_->currentPositions().data();
-    const Vec3* u = mesh_->velocities().data();
-    double worst2 = 0.0, finite = 1.0;  // the largest squared speed: one square root a part
-    for (int v = begin; v < end; ++v) {
-      if (!mesh_->vertexAlive(v)) continue;
-      if (!(x[v].allFinite() && u[v].allFinite())) finite = 0.0;
-      worst2 = std::max(worst2, u[v].squaredNorm());
-    }
-    partial_[part].sum[0] = std::sqrt(worst2);
-    partial_[part].sum[1] = finite;
-  });
   double worst = 0.0;
   bool finite = true;
   for (const Partial& p : partial_) {
-    worst = std::max(worst, p.sum[0]);
-    finite = finite && p.sum[1] > 0.0;
+    worst = std::max(worst, p.sum[2]);
+    finite = finite && p.sum[3] > 0.0;
   }
   if (finite && worst <= params_.max_speed) {
     last_max_displacement_ = dt * worst;
@@ -1290,6 +1319,24 @@ std::string MassSpring::step(double dt) {
   msg << "physics step unstable (" << (finite ? "speed " : "non-finite state, speed ") << worst
       << " m/s): rolled back and damped";
   return msg.str();
+}
+
+void MassSpring::scanSpeeds() {
+  const int n = mesh_->vertexSlots();
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
+    const Vec3* x = mesh_->currentPositions().data();
+    const Vec3* u = mesh_->velocities().data();
+    const unsigned char* alive_at = mesh_->vertexAliveFlags().data();
+    double worst2 = 0.0, finite = 1.0;  // the largest squared speed: one square root a part
+    for (int v = begin; v < end; ++v) {
+      if (!alive_at[v]) continue;
+      if (!(x[v].allFinite() && u[v].allFinite())) finite = 0.0;
+      worst2 = std::max(worst2, u[v].squaredNorm());
+    }
+    partial_[part].sum[2] = std::sqrt(worst2);
+    partial_[part].sum[3] = finite;
+  });
 }
 
 }  // namespace tissue_cut
