@@ -8,6 +8,8 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -15,6 +17,7 @@
 #include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/mesh_io.hpp"
+#include "tissue_cut/physics/lane_inverse.hpp"
 #include "tissue_cut/physics/mass_spring.hpp"
 #include "tissue_cut/tissue.hpp"
 
@@ -391,6 +394,72 @@ TEST(Physics, AnImplicitStepMeetingANonFiniteStateRollsBack) {
       ASSERT_EQ(mesh.current(v), before[v]) << v;
     }
   }
+}
+
+TEST(LaneInverse, InvertsEachLaneAsItWouldAlone) {
+  // The clusters' inverses, kInverseLanes at once: each lane's inverse is the inverse, a lane
+  // that is not positive definite is flagged, and a matrix's inverse has the same bits in any
+  // lane beside any others (the physics' deterministic replays depend on it).
+  constexpr int kL = kInverseLanes;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const int m : {6, 9, 12}) {
+    SCOPED_TRACE("m = " + std::to_string(m));
+    const int mm = m * m;
+    // Symmetric positive definite: B B^T + m/4 I, scaled as the physics' blocks are (1e-3).
+    auto spd = [&] {
+      std::vector<double> b(mm), a(mm, 0.0);
+      for (double& x : b) x = u(rng);
+      for (int i = 0; i < m; ++i)
+        for (int j = 0; j < m; ++j) {
+          for (int k = 0; k < m; ++k) a[i * m + j] += b[i * m + k] * b[j * m + k];
+          a[i * m + j] = 1e-3 * (a[i * m + j] + (i == j ? 0.25 * m : 0.0));
+        }
+      return a;
+    };
+    std::vector<std::vector<double>> mats;
+    for (int x = 0; x < kL; ++x) mats.push_back(spd());
+    const int bad = 3;  // lane 3: indefinite (its last diagonal entry made negative)
+    mats[bad][mm - 1] = -mats[bad][mm - 1];
+    std::vector<double> lanes(mm * kL);
+    for (int x = 0; x < kL; ++x)
+      for (int e = 0; e < mm; ++e) lanes[e * kL + x] = mats[x][e];
+    unsigned char ok[kL];
+    invertSymmetricLanes(m, lanes.data(), ok);
+    for (int x = 0; x < kL; ++x) {
+      ASSERT_EQ(ok[x] != 0, x != bad) << "lane " << x;
+      if (x == bad) continue;
+      double worst = 0.0;  // |A A^-1 - I|
+      for (int i = 0; i < m; ++i)
+        for (int j = 0; j < m; ++j) {
+          double s = 0.0;
+          for (int k = 0; k < m; ++k) s += mats[x][i * m + k] * lanes[(k * m + j) * kL + x];
+          worst = std::max(worst, std::abs(s - (i == j ? 1.0 : 0.0)));
+        }
+      EXPECT_LT(worst, 1e-9) << "lane " << x;
+    }
+    // Each positive definite matrix again, alone in another lane beside identities and the
+    // indefinite one: the same bits.
+    for (int x = 0; x < kL; ++x) {
+      if (x == bad) continue;
+      const int at = (x + 5) % kL;
+      std::vector<double> alone(mm * kL);
+      for (int y = 0; y < kL; ++y)
+        for (int e = 0; e < mm; ++e)
+          alone[e * kL + y] = y == at              ? mats[x][e]
+                              : y == (at + 1) % kL ? mats[bad][e]
+                                                   : (e % (m + 1) == 0 ? 1.0 : 0.0);
+      unsigned char ok_alone[kL];
+      invertSymmetricLanes(m, alone.data(), ok_alone);
+      ASSERT_TRUE(ok_alone[at]);
+      EXPECT_FALSE(ok_alone[(at + 1) % kL]);
+      for (int e = 0; e < mm; ++e)
+        ASSERT_EQ(alone[e * kL + at], lanes[e * kL + x]) << "lane " << x << ", element " << e;
+    }
+  }
+  std::vector<double> some(64 * kL, 1.0);
+  unsigned char ok[kL];
+  EXPECT_THROW(invertSymmetricLanes(8, some.data(), ok), std::invalid_argument);
 }
 
 TEST(Physics, ExplicitEulerIsReportedUnstableNotNaN) {

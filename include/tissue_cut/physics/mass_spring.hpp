@@ -197,7 +197,8 @@ class MassSpring {
   void refreshClusters(double dt);
   /// Inverts each cluster's block of A, from cluster_diag_ and the springs' blocks.
   void factorClusters();
-  void factorCluster(Cluster* cluster);
+  /// A cluster's block of A into its inverse's place, to be inverted there.
+  void fillCluster(Cluster* cluster);
   /// z = the clusters' blocks' inverses times r on the clusters' vertices (also into *p when
   /// given); returns the change this makes to sum r.z.
   double applyClusters(const Vec3* r, Vec3* z, Vec3* p);

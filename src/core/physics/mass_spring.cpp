@@ -5,6 +5,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "tissue_cut/physics/lane_inverse.hpp"
+
 namespace tissue_cut {
 
 namespace {
@@ -47,40 +49,6 @@ bool invert(Sym* m) {
 }
 
 // The inverse of the symmetric positive definite M x M matrix a (row-major), in place, by
-// Cholesky: A = L L^T, then A^-1 = L^-T L^-1. False (a unchanged) when it is not positive
-// definite. M is a template argument so that the loops unroll.
-template <int M>
-bool invertPositiveDefinite(double* a) {
-  double l[M][M] = {}, li[M][M] = {};
-  for (int j = 0; j < M; ++j) {
-    double d = a[j * M + j];
-    for (int k = 0; k < j; ++k) d -= l[j][k] * l[j][k];
-    if (!(d > 0)) return false;
-    l[j][j] = std::sqrt(d);
-    const double inv = 1.0 / l[j][j];
-    for (int i = j + 1; i < M; ++i) {
-      double s = a[i * M + j];
-      for (int k = 0; k < j; ++k) s -= l[i][k] * l[j][k];
-      l[i][j] = s * inv;
-    }
-  }
-  for (int j = 0; j < M; ++j) {  // L^-1, column by column
-    li[j][j] = 1.0 / l[j][j];
-    for (int i = j + 1; i < M; ++i) {
-      double s = 0.0;
-      for (int k = j; k < i; ++k) s += l[i][k] * li[k][j];
-      li[i][j] = -s / l[i][i];
-    }
-  }
-  for (int i = 0; i < M; ++i)
-    for (int j = 0; j <= i; ++j) {
-      double s = 0.0;
-      for (int k = i; k < M; ++k) s += li[k][i] * li[k][j];
-      a[i * M + j] = a[j * M + i] = s;
-    }
-  return true;
-}
-
 // x = a r for the symmetric M x M matrix a (row-major).
 template <int M>
 void multiply(const double* a, const double* r, double* x) {
@@ -720,18 +688,54 @@ void MassSpring::buildClusters() {
 }
 
 void MassSpring::factorClusters() {
-  static_assert(kMaxCluster == 4, "invertPositiveDefinite and multiply below take 2 to 4");
+  static_assert(kMaxCluster == 4, "the inversions below take 2 to 4 vertices");
   // The clusters are independent: split over the parts (their inverses do not depend on it).
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(static_cast<int>(clusters_.size()), part);
-    for (int k = begin; k < end; ++k) factorCluster(&clusters_[k]);
+    for (int k = begin; k < end; ++k) fillCluster(&clusters_[k]);
+    // Inverted once a step: CG applies it 4-10 times, as a plain product (Eigen's Cholesky
+    // solve, its size known only at run time, took 0.2 us a cluster). kInverseLanes clusters of
+    // a size at a time: one alone was a chain of square roots and divisions (about 40 us a step
+    // for the 20k organ's 66 clusters; 28 -> 14 us side by side).
+    constexpr int kLanes = kInverseLanes;
+    double lanes[9 * kMaxCluster * kMaxCluster * kLanes];
+    unsigned char ok[kLanes];
+    int group[kLanes];
+    for (int size = 2; size <= kMaxCluster; ++size) {
+      const int m = 3 * size, mm = m * m;
+      int count = 0;
+      auto invert = [&] {
+        for (int x = 0; x < kLanes; ++x) {
+          if (x < count) {
+            const double* a = clusters_[group[x]].inverse.data();
+            for (int e = 0; e < mm; ++e) lanes[e * kLanes + x] = a[e];
+          } else {  // an empty lane: the identity
+            for (int e = 0; e < mm; ++e) lanes[e * kLanes + x] = e % (m + 1) == 0 ? 1.0 : 0.0;
+          }
+        }
+        invertSymmetricLanes(m, lanes, ok);
+        for (int x = 0; x < count; ++x) {
+          Cluster& c = clusters_[group[x]];
+          c.usable = ok[x] != 0;
+          if (!c.usable) continue;  // its block left as it was
+          for (int e = 0; e < mm; ++e) c.inverse[e] = lanes[e * kLanes + x];
+        }
+        count = 0;
+      };
+      for (int k = begin; k < end; ++k) {
+        if (clusters_[k].size != size) continue;
+        group[count++] = k;
+        if (count == kLanes) invert();
+      }
+      if (count > 0) invert();
+    }
   });
 }
 
-void MassSpring::factorCluster(Cluster* cluster) {
+void MassSpring::fillCluster(Cluster* cluster) {
   Cluster& c = *cluster;
   const int m = 3 * c.size;
-  double* a = c.inverse.data();  // the block first, then inverted in place
+  double* a = c.inverse.data();  // the block first, then inverted in place (factorClusters())
   std::fill(a, a + m * m, 0.0);
   auto put = [&](int i, int j, const Block& k, double sign) {
     const double e[3][3] = {{k.xx, k.xy, k.xz}, {k.xy, k.yy, k.yz}, {k.xz, k.yz, k.zz}};
@@ -746,11 +750,6 @@ void MassSpring::factorCluster(Cluster* cluster) {
     put(i, j, k, -1.0);  // A p at a has -h^2 K p_b
     put(j, i, k, -1.0);
   }
-  // Inverted once a step: CG applies it 4-10 times, as a plain product (Eigen's Cholesky
-  // solve, its size known only at run time, took 0.2 us a cluster).
-  c.usable = c.size == 2   ? invertPositiveDefinite<6>(a)
-             : c.size == 3 ? invertPositiveDefinite<9>(a)
-                           : invertPositiveDefinite<12>(a);
 }
 
 double MassSpring::applyClusters(const Vec3* r, Vec3* z, Vec3* p) {
