@@ -48,7 +48,6 @@ bool invert(Sym* m) {
   return true;
 }
 
-// The inverse of the symmetric positive definite M x M matrix a (row-major), in place, by
 // x = a r for the symmetric M x M matrix a (row-major).
 template <int M>
 void multiply(const double* a, const double* r, double* x) {
