@@ -375,33 +375,59 @@ double MassSpring::partialSum(int k) const {
   return sum;
 }
 
-void MassSpring::springProducts(int part, const Vec3* pv) {
+namespace {
+
+// Four doubles as one vector (GCC's vector extensions: one AVX register where the CPU has AVX2,
+// two SSE2 registers otherwise), read and written in place of a Padded3.
+typedef double V4 __attribute__((vector_size(32), may_alias));
+typedef long long I4 __attribute__((vector_size(32)));
+
+}  // namespace
+
+// Compiled twice, the AVX2 copy chosen where the CPU has it: a vertex's p and sum are one
+// register each (one load or store, not three), and a block's product is three columns times
+// three broadcasts. On the 20k organ a CG iteration took 11% fewer cycles (209 -> 186 k, medians
+// of 10 alternating replays); this loop alone, on made-up springs, 68 -> 53 us for 28,700. Each
+// lane does the scalar code's operations in its order (the fourth lane is zero), so both copies
+// give the bits of apply(): ((k.xx d.x + k.xy d.y) + k.xz d.z) and so on.
+__attribute__((target_clones("avx2", "default"))) void MassSpring::springProducts(
+    int part, const Padded3* pv) {
   // h^2 K (p_a - p_b) of this part's springs, added at a and taken at b. Springs are kept sorted
   // by their first end (mostly: new ones go last), so the first end's sum stays in registers along
   // a run and only the second end is scattered; that breaks the chain of dependent loads and
   // stores through out[a].
   // The part's own buffer, zero on entry: the vertex loop that reads it zeroes each row it read.
-  Vec3* out = acc_[part].data();
+  Padded3* out = product_acc_[part].data();
   // The part's springs as assembleSprings() packed them (none whose ends are both held).
   const int begin = rangeOf(static_cast<int>(springs_.size()), part).first;
   const int end = packed_end_[part];
   const std::array<int, 2>* ends = ends_.data();  // 8 bytes a spring read, not 24
   const Block* blocks = blocks_.data();
+  static_assert(sizeof(Padded3) == sizeof(V4) && alignof(Padded3) >= alignof(V4),
+                "a padded vector is four doubles");
+  const V4* p4 = reinterpret_cast<const V4*>(pv);
+  V4* out4 = reinterpret_cast<V4*>(out);
   int run = -1;
-  Vec3 pa = Vec3::Zero(), sum = Vec3::Zero();
+  V4 pa = {0, 0, 0, 0}, sum = {0, 0, 0, 0};
   for (int i = begin; i < end; ++i) {
     const int a = ends[i][0], b = ends[i][1];
     if (a != run) {
-      if (run >= 0) out[run] += sum;
+      if (run >= 0) out4[run] += sum;
       run = a;
-      pa = pv[a];
-      sum.setZero();
+      pa = p4[a];
+      sum = V4{0, 0, 0, 0};
     }
-    const Vec3 r = apply(blocks[i], Vec3(pa - pv[b]));
+    const Block& k = blocks[i];
+    const V4 d = pa - p4[b];
+    const V4 dx = __builtin_shuffle(d, I4{0, 0, 0, 0});
+    const V4 dy = __builtin_shuffle(d, I4{1, 1, 1, 1});
+    const V4 dz = __builtin_shuffle(d, I4{2, 2, 2, 2});
+    const V4 r = (V4{k.xx, k.xy, k.xz, 0.0} * dx + V4{k.xy, k.yy, k.yz, 0.0} * dy) +
+                 V4{k.xz, k.yz, k.zz, 0.0} * dz;
     sum += r;
-    out[b] -= r;
+    out4[b] -= r;
   }
-  if (run >= 0) out[run] += sum;
+  if (run >= 0) out4[run] += sum;
 }
 
 void MassSpring::assembleSprings(int part, double dt) {
@@ -751,7 +777,7 @@ void MassSpring::fillCluster(Cluster* cluster) {
   }
 }
 
-double MassSpring::applyClusters(const Vec3* r, Vec3* z, Vec3* p) {
+double MassSpring::applyClusters(const Vec3* r, Vec3* z, Padded3* p) {
   double change = 0.0;
   for (const Cluster& c : clusters_) {
     if (!c.usable) continue;  // its vertices keep their own blocks
@@ -772,7 +798,7 @@ double MassSpring::applyClusters(const Vec3* r, Vec3* z, Vec3* p) {
       const Vec3 zv(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
       change += r[v].dot(zv - z[v]);
       z[v] = zv;
-      if (p) p[v] = zv;
+      if (p) p[v].v = zv;
     }
   }
   return change;
@@ -905,7 +931,7 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   double rz_after = 0.0, rr_after = 0.0;
   for (int v : local_vertices_) {
     z_[v] = apply(inv_diag_[v], r_[v]);
-    p_[v] = z_[v];
+    p_[v].v = z_[v];
     rz_after += r_[v].dot(z_[v]);
     rr_after += r_[v].squaredNorm();
   }
@@ -935,7 +961,8 @@ void MassSpring::sizeStepBuffers() {
   resizeSlots(&inertia_, n, 0.0);
   partial_.resize(parts);
   if (!params_.implicit) return;
-  for (auto* v : {&b_, &r_, &z_, &p_, &ap_, &dv_}) resizeSlots(v, n, Vec3::Zero());
+  for (auto* v : {&b_, &r_, &z_, &ap_, &dv_}) resizeSlots(v, n, Vec3::Zero());
+  resizeSlots(&p_, n, Padded3{});
   resizeSlots(&inv_diag_, n);
   resizeSlots(&held_, n);
   resizeSlots(&blocks_, springs_.size());
@@ -946,6 +973,8 @@ void MassSpring::sizeStepBuffers() {
   start_acc_.resize(parts);
   diag_acc_.resize(parts);
   for (auto& e : acc_) resizeSlots(&e, n, Vec3::Zero());
+  product_acc_.resize(parts);
+  for (auto& e : product_acc_) resizeSlots(&e, n, Padded3{});
   for (auto& e : start_acc_) resizeSlots(&e, n, Vec3::Zero());
   for (auto& e : diag_acc_) resizeSlots(&e, n, Block{0, 0, 0, 0, 0, 0});
 }
@@ -1032,7 +1061,7 @@ bool MassSpring::stepImplicit(double dt) {
     Block* inv_diag = inv_diag_.data();
     Vec3* r = r_.data();
     Vec3* z = z_.data();
-    Vec3* p = p_.data();
+    Padded3* p = p_.data();
     // The first part's sums through pointers of their own (the others' are added after, in the
     // same order): through acc_[q] each row reloaded the buffers' addresses after every store.
     Vec3* acc0 = acc_[0].data();
@@ -1070,7 +1099,7 @@ bool MassSpring::stepImplicit(double dt) {
       inv_diag[v] = diag;
       r[v] = rv;
       z[v] = zv;
-      p[v] = zv;
+      p[v].v = zv;
       if (!held_v) weight2 += (mass[v] * dt) * (mass[v] * dt);
       b_norm += bv.squaredNorm();
       rz += rv.dot(zv);
@@ -1100,27 +1129,27 @@ bool MassSpring::stepImplicit(double dt) {
     parallel([&](int part) { springProducts(part, p_.data()); });
     parallel([&](int part) {
       const auto [begin, end] = rangeOf(n, part);
-      const Vec3* p = p_.data();
+      const Padded3* p = p_.data();
       Vec3* ap = ap_.data();
       const double* inertia = inertia_.data();
       const unsigned char* held = held_.data();
       const double mass_damping = mass_damping_;
-      Vec3* acc0 = acc_[0].data();
+      Padded3* acc0 = product_acc_[0].data();
       double pap = 0.0;
       for (int v = begin; v < end; ++v) {
         // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), the springs' terms summed
         // part by part. Held rows (fixed vertices) are zero; dead vertices have no mass and no
         // springs.
-        Vec3 sum = (mass_damping * inertia[v]) * p[v];
-        sum += acc0[v];  // as in the set-up: the first part's sums through a pointer of its own
-        acc0[v].setZero();
+        Vec3 sum = (mass_damping * inertia[v]) * p[v].v;
+        sum += acc0[v].v;  // as in the set-up: the first part's sums through a pointer of its own
+        acc0[v] = Padded3{};  // the fourth double too
         for (int q = 1; q < parts; ++q) {
-          sum += acc_[q][v];
-          acc_[q][v].setZero();
+          sum += product_acc_[q][v].v;
+          product_acc_[q][v] = Padded3{};
         }
         const Vec3 apv = held[v] ? Vec3::Zero() : sum;
         ap[v] = apv;
-        pap += p[v].dot(apv);
+        pap += p[v].v.dot(apv);
       }
       partial_[part].sum[0] = pap;
     });
@@ -1132,12 +1161,12 @@ bool MassSpring::stepImplicit(double dt) {
       Vec3* dv = dv_.data();
       Vec3* r = r_.data();
       Vec3* z = z_.data();
-      const Vec3* p = p_.data();
+      const Padded3* p = p_.data();
       const Vec3* ap = ap_.data();
       const Block* inv_diag = inv_diag_.data();
       double rz_next = 0.0, rr_next = 0.0;
       for (int v = begin; v < end; ++v) {
-        dv[v] += alpha * p[v];
+        dv[v] += alpha * p[v].v;
         const Vec3 rv = r[v] - alpha * ap[v];
         const Vec3 zv = apply(inv_diag[v], rv);
         r[v] = rv;
@@ -1154,9 +1183,9 @@ bool MassSpring::stepImplicit(double dt) {
     rz = rz_next;
     parallel([&, beta](int part) {
       const auto [begin, end] = rangeOf(n, part);
-      Vec3* p = p_.data();
+      Padded3* p = p_.data();
       const Vec3* z = z_.data();
-      for (int v = begin; v < end; ++v) p[v] = z[v] + beta * p[v];
+      for (int v = begin; v < end; ++v) p[v].v = z[v] + beta * p[v].v;
     });
   }
   last_iterations_ = it;
