@@ -140,15 +140,15 @@ class MassSpring {
   void parallel(const std::function<void(int)>& part);
   /// The part'th of numThreads() nearly equal ranges of [0, count).
   std::pair<int, int> rangeOf(int count, int part) const;
-  // A vertex's vector in 32 bytes, the fourth double zero: the CG products read and write a
-  // vertex's p and sum with one vector load or store each (see springProducts()).
+  // A vertex's vector in 32 bytes, the fourth double zero: CG's products and vertex loops read
+  // and write a vertex's vector with one vector load or store (see springProducts()).
   struct alignas(32) Padded3 {
     Vec3 v = Vec3::Zero();
     double pad = 0.0;
   };
   /// A p with A = (1 + h alpha) M + h^2 K, in two steps: springProducts() for every part (its
-  /// springs' terms into its own buffer, product_acc_[part]), then a loop over the vertices in
-  /// stepImplicit() (the mass term and the parts' sums into ap_, held rows zero).
+  /// springs' terms into its own buffer, product_acc_[part]), then massProducts() (the mass
+  /// term and the parts' sums into ap_, held rows zero).
   void springProducts(int part, const Padded3* p);
   /// The springs' part of the implicit step's set-up (see stepImplicit()).
   void assembleSprings(int part, double dt);
@@ -207,7 +207,13 @@ class MassSpring {
   void fillCluster(Cluster* cluster);
   /// z = the clusters' blocks' inverses times r on the clusters' vertices (also into *p when
   /// given); returns the change this makes to sum r.z.
-  double applyClusters(const Vec3* r, Vec3* z, Padded3* p);
+  double applyClusters(const Padded3* r, Padded3* z, Padded3* p);
+  /// CG's vertex loops (see stepImplicit()): A p from the products' buffers (returns this
+  /// part's share of p.Ap); the updates of dv, r and z (shares of r.z and r.r into partial_);
+  /// p = z + beta p.
+  double massProducts(int part);
+  void updateResidual(int part, double alpha);
+  void updateDirection(int part, double beta);
   // The local pre-solve. On the step a cut or a collapse changes some vertices' springs and
   // masses, 96-99% of CG's first residual sits on those few vertices (the 20k organ: 6-12 of
   // 5,000; the steps after: the same few, through the warm start's extrapolation): 1,000-10,000
@@ -301,8 +307,8 @@ class MassSpring {
   std::vector<std::array<int, 2>> ends_;
   std::vector<int> packed_end_;  // per part
   std::vector<int> packed_at_;   // per spring: its index in ends_ and blocks_, -1 when left out
-  std::vector<Vec3> b_, r_, z_, ap_, dv_, x0_;
-  std::vector<Padded3> p_;       // CG's search direction
+  std::vector<Vec3> b_, dv_, x0_;
+  std::vector<Padded3> r_, z_, p_, ap_;  // CG's residual, its preconditioned, direction, A p
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead
   std::vector<unsigned char> held_;  // rows held at zero this step: fixed or dead vertices
   // Each part sums its springs' terms here (per part, per vertex). Zero between uses: the

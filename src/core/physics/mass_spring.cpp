@@ -777,14 +777,14 @@ void MassSpring::fillCluster(Cluster* cluster) {
   }
 }
 
-double MassSpring::applyClusters(const Vec3* r, Vec3* z, Padded3* p) {
+double MassSpring::applyClusters(const Padded3* r, Padded3* z, Padded3* p) {
   double change = 0.0;
   for (const Cluster& c : clusters_) {
     if (!c.usable) continue;  // its vertices keep their own blocks
     const int m = 3 * c.size;
     double rhs[3 * kMaxCluster], x[3 * kMaxCluster];
     for (int i = 0; i < c.size; ++i)
-      for (int k = 0; k < 3; ++k) rhs[3 * i + k] = r[c.vertices[i]][k];
+      for (int k = 0; k < 3; ++k) rhs[3 * i + k] = r[c.vertices[i]].v[k];
     const double* inverse = c.inverse.data();
     if (m == 6) {
       multiply<6>(inverse, rhs, x);
@@ -796,8 +796,8 @@ double MassSpring::applyClusters(const Vec3* r, Vec3* z, Padded3* p) {
     for (int i = 0; i < c.size; ++i) {
       const int v = c.vertices[i];
       const Vec3 zv(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
-      change += r[v].dot(zv - z[v]);
-      z[v] = zv;
+      change += r[v].v.dot(zv - z[v].v);
+      z[v].v = zv;
       if (p) p[v].v = zv;
     }
   }
@@ -813,7 +813,7 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   pick.clear();
   const double least = kLocalPick * rr;
   for (int v = 0; v < n; ++v) {
-    const double e = r_[v].squaredNorm();
+    const double e = r_[v].v.squaredNorm();
     if (e >= least) pick.push_back({e, v});
   }
   // More vertices than that each hold kLocalPick of it: the residual is spread out (the organ
@@ -873,8 +873,8 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   // Their terms of r.z and r.r before (z = P r, as the set-up left it).
   double rz_before = 0.0, rr_before = 0.0;
   for (int v : local_vertices_) {
-    rz_before += r_[v].dot(z_[v]);
-    rr_before += r_[v].squaredNorm();
+    rz_before += r_[v].v.dot(z_[v].v);
+    rr_before += r_[v].v.squaredNorm();
   }
   for (auto* x : {&local_r_, &local_z_, &local_p_, &local_q_, &local_x_})
     x->assign(total, Vec3::Zero());
@@ -883,7 +883,7 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   double rz = 0.0, rr_local = 0.0;
   for (int i = 0; i < m; ++i) {
     const int v = local_vertices_[i];
-    local_r_[i] = r_[v];
+    local_r_[i] = r_[v].v;
     local_z_[i] = apply(inv_diag_[v], local_r_[i]);
     local_p_[i] = local_z_[i];
     rz += local_r_[i].dot(local_z_[i]);
@@ -916,7 +916,7 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
     }
     for (int i = m; i < total; ++i) {
       const int v = local_vertices_[i];
-      if (!held_[v]) r_[v] -= alpha * local_q_[i];  // held rows stay zero
+      if (!held_[v]) r_[v].v -= alpha * local_q_[i];  // held rows stay zero
     }
     const double beta = rz_next / rz;
     rz = rz_next;
@@ -925,15 +925,15 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
   for (int i = 0; i < m; ++i) {
     const int v = local_vertices_[i];
     dv_[v] += local_x_[i];
-    r_[v] = local_r_[i];
+    r_[v].v = local_r_[i];
   }
   // CG's start there again: z = P r, p = z; the sums changed by the difference.
   double rz_after = 0.0, rr_after = 0.0;
   for (int v : local_vertices_) {
-    z_[v] = apply(inv_diag_[v], r_[v]);
-    p_[v].v = z_[v];
-    rz_after += r_[v].dot(z_[v]);
-    rr_after += r_[v].squaredNorm();
+    z_[v].v = apply(inv_diag_[v], r_[v].v);
+    p_[v].v = z_[v].v;
+    rz_after += r_[v].v.dot(z_[v].v);
+    rr_after += r_[v].v.squaredNorm();
   }
   *rz_total = std::max(0.0, *rz_total + (rz_after - rz_before));
   *rr_total = std::max(0.0, *rr_total + (rr_after - rr_before));
@@ -961,8 +961,8 @@ void MassSpring::sizeStepBuffers() {
   resizeSlots(&inertia_, n, 0.0);
   partial_.resize(parts);
   if (!params_.implicit) return;
-  for (auto* v : {&b_, &r_, &z_, &ap_, &dv_}) resizeSlots(v, n, Vec3::Zero());
-  resizeSlots(&p_, n, Padded3{});
+  for (auto* v : {&b_, &dv_}) resizeSlots(v, n, Vec3::Zero());
+  for (auto* v : {&r_, &z_, &p_, &ap_}) resizeSlots(v, n, Padded3{});
   resizeSlots(&inv_diag_, n);
   resizeSlots(&held_, n);
   resizeSlots(&blocks_, springs_.size());
@@ -977,6 +977,80 @@ void MassSpring::sizeStepBuffers() {
   for (auto& e : product_acc_) resizeSlots(&e, n, Padded3{});
   for (auto& e : start_acc_) resizeSlots(&e, n, Vec3::Zero());
   for (auto& e : diag_acc_) resizeSlots(&e, n, Block{0, 0, 0, 0, 0, 0});
+}
+
+// CG's vertex loops, compiled twice as springProducts() (padded rows, a vertex's vector one
+// load or store). Each lane does the scalar code's operations in its order, and a dot product
+// adds its lanes as Eigen's does for a 3-vector, (x + y) + z: the same bits.
+namespace {
+inline double sum3(const V4& m) { return (m[0] + m[1]) + m[2]; }
+}  // namespace
+
+__attribute__((target_clones("avx2", "default"))) double MassSpring::massProducts(int part) {
+  // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), the springs' terms summed part by
+  // part (each part's buffer zeroed as it is read). Held rows (fixed vertices) are zero; dead
+  // vertices have no mass and no springs. Returns this part's share of p.Ap.
+  const auto [begin, end] = rangeOf(mesh_->vertexSlots(), part);
+  const int parts = numThreads();
+  const V4* p = reinterpret_cast<const V4*>(p_.data());
+  V4* ap = reinterpret_cast<V4*>(ap_.data());
+  V4* acc0 = reinterpret_cast<V4*>(product_acc_[0].data());
+  const double* inertia = inertia_.data();
+  const unsigned char* held = held_.data();
+  const double mass_damping = mass_damping_;
+  double pap = 0.0;
+  for (int v = begin; v < end; ++v) {
+    V4 sum = (mass_damping * inertia[v]) * p[v];
+    sum += acc0[v];  // the first part's sums through a pointer of their own
+    acc0[v] = V4{0, 0, 0, 0};
+    for (int q = 1; q < parts; ++q) {
+      V4* acc = reinterpret_cast<V4*>(product_acc_[q].data());
+      sum += acc[v];
+      acc[v] = V4{0, 0, 0, 0};
+    }
+    const V4 apv = held[v] ? V4{0, 0, 0, 0} : sum;
+    ap[v] = apv;
+    pap += sum3(p[v] * apv);
+  }
+  return pap;
+}
+
+__attribute__((target_clones("avx2", "default"))) void MassSpring::updateResidual(int part,
+                                                                                  double alpha) {
+  // dv += alpha p, r -= alpha A p, z = P r (block-Jacobi; the clusters after), and this part's
+  // shares of r.z and r.r into partial_[part].
+  const auto [begin, end] = rangeOf(mesh_->vertexSlots(), part);
+  Vec3* dv = dv_.data();
+  V4* r = reinterpret_cast<V4*>(r_.data());
+  V4* z = reinterpret_cast<V4*>(z_.data());
+  const Padded3* p = p_.data();
+  const V4* ap = reinterpret_cast<const V4*>(ap_.data());
+  const Block* inv_diag = inv_diag_.data();
+  double rz_next = 0.0, rr_next = 0.0;
+  for (int v = begin; v < end; ++v) {
+    dv[v] += alpha * p[v].v;
+    const V4 rv = r[v] - alpha * ap[v];
+    const Block& k = inv_diag[v];
+    const V4 rx = __builtin_shuffle(rv, I4{0, 0, 0, 0});
+    const V4 ry = __builtin_shuffle(rv, I4{1, 1, 1, 1});
+    const V4 rz = __builtin_shuffle(rv, I4{2, 2, 2, 2});
+    const V4 zv = (V4{k.xx, k.xy, k.xz, 0.0} * rx + V4{k.xy, k.yy, k.yz, 0.0} * ry) +
+                  V4{k.xz, k.yz, k.zz, 0.0} * rz;
+    r[v] = rv;
+    z[v] = zv;
+    rz_next += sum3(rv * zv);
+    rr_next += sum3(rv * rv);
+  }
+  partial_[part].sum[0] = rz_next;
+  partial_[part].sum[1] = rr_next;
+}
+
+__attribute__((target_clones("avx2", "default"))) void MassSpring::updateDirection(int part,
+                                                                                   double beta) {
+  const auto [begin, end] = rangeOf(mesh_->vertexSlots(), part);
+  V4* p = reinterpret_cast<V4*>(p_.data());
+  const V4* z = reinterpret_cast<const V4*>(z_.data());
+  for (int v = begin; v < end; ++v) p[v] = z[v] + beta * p[v];
 }
 
 bool MassSpring::stepImplicit(double dt) {
@@ -1059,8 +1133,8 @@ bool MassSpring::stepImplicit(double dt) {
     const Vec3* dv = dv_.data();
     Vec3* b_out = b_.data();
     Block* inv_diag = inv_diag_.data();
-    Vec3* r = r_.data();
-    Vec3* z = z_.data();
+    Padded3* r = r_.data();
+    Padded3* z = z_.data();
     Padded3* p = p_.data();
     // The first part's sums through pointers of their own (the others' are added after, in the
     // same order): through acc_[q] each row reloaded the buffers' addresses after every store.
@@ -1097,8 +1171,8 @@ bool MassSpring::stepImplicit(double dt) {
       const Vec3 zv = apply(diag, rv);
       b_out[v] = bv;
       inv_diag[v] = diag;
-      r[v] = rv;
-      z[v] = zv;
+      r[v].v = rv;
+      z[v].v = zv;
       p[v].v = zv;
       if (!held_v) weight2 += (mass[v] * dt) * (mass[v] * dt);
       b_norm += bv.squaredNorm();
@@ -1127,66 +1201,16 @@ bool MassSpring::stepImplicit(double dt) {
   for (; it < params_.cg_max_iterations; ++it) {
     if (rr <= tolerance2) break;
     parallel([&](int part) { springProducts(part, p_.data()); });
-    parallel([&](int part) {
-      const auto [begin, end] = rangeOf(n, part);
-      const Padded3* p = p_.data();
-      Vec3* ap = ap_.data();
-      const double* inertia = inertia_.data();
-      const unsigned char* held = held_.data();
-      const double mass_damping = mass_damping_;
-      Padded3* acc0 = product_acc_[0].data();
-      double pap = 0.0;
-      for (int v = begin; v < end; ++v) {
-        // A p = (1 + h alpha) M p + h^2 sum_springs K (p_a - p_b), the springs' terms summed
-        // part by part. Held rows (fixed vertices) are zero; dead vertices have no mass and no
-        // springs.
-        Vec3 sum = (mass_damping * inertia[v]) * p[v].v;
-        sum += acc0[v].v;  // as in the set-up: the first part's sums through a pointer of its own
-        acc0[v] = Padded3{};  // the fourth double too
-        for (int q = 1; q < parts; ++q) {
-          sum += product_acc_[q][v].v;
-          product_acc_[q][v] = Padded3{};
-        }
-        const Vec3 apv = held[v] ? Vec3::Zero() : sum;
-        ap[v] = apv;
-        pap += p[v].v.dot(apv);
-      }
-      partial_[part].sum[0] = pap;
-    });
+    parallel([&](int part) { partial_[part].sum[0] = massProducts(part); });
     const double pap = partialSum(0);
     if (!(pap > 0)) break;  // the loop above has left the products' buffers zero
     const double alpha = rz / pap;
-    parallel([&, alpha](int part) {
-      const auto [begin, end] = rangeOf(n, part);
-      Vec3* dv = dv_.data();
-      Vec3* r = r_.data();
-      Vec3* z = z_.data();
-      const Padded3* p = p_.data();
-      const Vec3* ap = ap_.data();
-      const Block* inv_diag = inv_diag_.data();
-      double rz_next = 0.0, rr_next = 0.0;
-      for (int v = begin; v < end; ++v) {
-        dv[v] += alpha * p[v].v;
-        const Vec3 rv = r[v] - alpha * ap[v];
-        const Vec3 zv = apply(inv_diag[v], rv);
-        r[v] = rv;
-        z[v] = zv;
-        rz_next += rv.dot(zv);
-        rr_next += rv.squaredNorm();
-      }
-      partial_[part].sum[0] = rz_next;
-      partial_[part].sum[1] = rr_next;
-    });
+    parallel([&, alpha](int part) { updateResidual(part, alpha); });
     const double rz_next = partialSum(0) + applyClusters(r_.data(), z_.data(), nullptr);
     rr = partialSum(1);
     const double beta = rz_next / rz;
     rz = rz_next;
-    parallel([&, beta](int part) {
-      const auto [begin, end] = rangeOf(n, part);
-      Padded3* p = p_.data();
-      const Vec3* z = z_.data();
-      for (int v = begin; v < end; ++v) p[v].v = z[v] + beta * p[v].v;
-    });
+    parallel([&, beta](int part) { updateDirection(part, beta); });
   }
   last_iterations_ = it;
   total_iterations_ += it;
