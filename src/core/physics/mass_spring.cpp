@@ -382,14 +382,26 @@ namespace {
 typedef double V4 __attribute__((vector_size(32), may_alias));
 typedef long long I4 __attribute__((vector_size(32)));
 
+// *out = k d in the lanes of d (the fourth lane zero): three columns times three broadcasts,
+// each lane ((k.xx d.x + k.xy d.y) + k.xz d.z) and so on, as apply() does. Inlined into each copy
+// of its callers (a V4 returned by value would change the ABI between them).
+template <class Sym>
+inline void applyBlock(const Sym& k, const V4& d, V4* out) {
+  const V4 dx = __builtin_shuffle(d, I4{0, 0, 0, 0});
+  const V4 dy = __builtin_shuffle(d, I4{1, 1, 1, 1});
+  const V4 dz = __builtin_shuffle(d, I4{2, 2, 2, 2});
+  *out = (V4{k.xx, k.xy, k.xz, 0.0} * dx + V4{k.xy, k.yy, k.yz, 0.0} * dy) +
+         V4{k.xz, k.yz, k.zz, 0.0} * dz;
+}
+
 }  // namespace
 
 // Compiled twice, the AVX2 copy chosen where the CPU has it: a vertex's p and sum are one
-// register each (one load or store, not three), and a block's product is three columns times
-// three broadcasts. On the 20k organ a CG iteration took 11% fewer cycles (209 -> 186 k, medians
-// of 10 alternating replays); this loop alone, on made-up springs, 68 -> 53 us for 28,700. Each
-// lane does the scalar code's operations in its order (the fourth lane is zero), so both copies
-// give the bits of apply(): ((k.xx d.x + k.xy d.y) + k.xz d.z) and so on.
+// register each (one load or store, not three), and a block's product is applyBlock(). On the
+// 20k organ a CG iteration took 11% fewer cycles (209 -> 186 k, medians of 10 alternating
+// replays); this loop alone, on made-up springs, 68 -> 53 us for 28,700. Each lane does the
+// scalar code's operations in its order (the fourth lane is zero): both copies give the bits of
+// apply().
 __attribute__((target_clones("avx2", "default"))) void MassSpring::springProducts(
     int part, const Padded3* pv) {
   // h^2 K (p_a - p_b) of this part's springs, added at a and taken at b. Springs are kept sorted
@@ -417,13 +429,8 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::springProduct
       pa = p4[a];
       sum = V4{0, 0, 0, 0};
     }
-    const Block& k = blocks[i];
-    const V4 d = pa - p4[b];
-    const V4 dx = __builtin_shuffle(d, I4{0, 0, 0, 0});
-    const V4 dy = __builtin_shuffle(d, I4{1, 1, 1, 1});
-    const V4 dz = __builtin_shuffle(d, I4{2, 2, 2, 2});
-    const V4 r = (V4{k.xx, k.xy, k.xz, 0.0} * dx + V4{k.xy, k.yy, k.yz, 0.0} * dy) +
-                 V4{k.xz, k.yz, k.zz, 0.0} * dz;
+    V4 r;
+    applyBlock(blocks[i], pa - p4[b], &r);
     sum += r;
     out4[b] -= r;
   }
@@ -1030,12 +1037,8 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::updateResidua
   for (int v = begin; v < end; ++v) {
     dv[v] += alpha * p[v].v;
     const V4 rv = r[v] - alpha * ap[v];
-    const Block& k = inv_diag[v];
-    const V4 rx = __builtin_shuffle(rv, I4{0, 0, 0, 0});
-    const V4 ry = __builtin_shuffle(rv, I4{1, 1, 1, 1});
-    const V4 rz = __builtin_shuffle(rv, I4{2, 2, 2, 2});
-    const V4 zv = (V4{k.xx, k.xy, k.xz, 0.0} * rx + V4{k.xy, k.yy, k.yz, 0.0} * ry) +
-                  V4{k.xz, k.yz, k.zz, 0.0} * rz;
+    V4 zv;
+    applyBlock(inv_diag[v], rv, &zv);
     r[v] = rv;
     z[v] = zv;
     rz_next += sum3(rv * zv);
