@@ -408,7 +408,7 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::springProduct
   // by their first end (mostly: new ones go last), so the first end's sum stays in registers along
   // a run and only the second end is scattered; that breaks the chain of dependent loads and
   // stores through out[a].
-  // The part's own buffer, zero on entry: the vertex loop that reads it zeroes each row it read.
+  // The part's own buffer, zero on entry: massProducts(), which reads it, zeroes each row.
   Padded3* out = product_acc_[part].data();
   // The part's springs as assembleSprings() packed them (none whose ends are both held).
   const int begin = rangeOf(static_cast<int>(springs_.size()), part).first;
@@ -1206,7 +1206,7 @@ bool MassSpring::stepImplicit(double dt) {
     parallel([&](int part) { springProducts(part, p_.data()); });
     parallel([&](int part) { partial_[part].sum[0] = massProducts(part); });
     const double pap = partialSum(0);
-    if (!(pap > 0)) break;  // the loop above has left the products' buffers zero
+    if (!(pap > 0)) break;  // massProducts() has left the products' buffers zero
     const double alpha = rz / pap;
     parallel([&, alpha](int part) { updateResidual(part, alpha); });
     const double rz_next = partialSum(0) + applyClusters(r_.data(), z_.data(), nullptr);
