@@ -327,19 +327,19 @@ class MassSpring {
   struct StrongSpring {
     std::array<int, 2> ends;  // lower first
     double ratio;             // strongRatio() when found (it changes only where follow() looks)
+    // The order buildClusters() takes them in: strongest first, ties by their ends.
     bool operator<(const StrongSpring& o) const {
-      return ends[0] != o.ends[0] ? ends[0] < o.ends[0] : ends[1] < o.ends[1];
+      return ratio != o.ratio ? ratio > o.ratio : ends < o.ends;
     }
   };
-  std::vector<StrongSpring> strong_;       // the strong springs, sorted by their ends
+  std::vector<StrongSpring> strong_;       // the strong springs, in that order
   double strong_dt_ = 0.0;                 // the step size of strong_; 0: find them all again
   std::vector<Cluster> clusters_;
   std::vector<int> cluster_of_;      // per vertex: its cluster's index in clusters_, or -1
   std::vector<Block> cluster_diag_;  // a cluster vertex's own block of A, this step
-  // buildClusters()' scratch: the strong springs strongest first, and the clusters as they grow
-  // (a Cluster with its inverse is 1.2 kB: made and moved while merging, they had been half of
-  // the rebuild that every cut or collapse tick makes).
-  std::vector<StrongSpring> strong_order_;
+  // buildClusters()' scratch: the clusters as they grow (a Cluster with its inverse is 1.2 kB:
+  // made and moved while merging, they had been half of the rebuild that every cut or collapse
+  // tick makes).
   struct ClusterSet {
     int size = 0;
     std::array<int, kMaxCluster> vertices;
