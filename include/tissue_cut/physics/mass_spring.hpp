@@ -211,6 +211,7 @@ class MassSpring {
   /// CG's vertex loops (see stepImplicit()): A p from the products' buffers (returns this
   /// part's share of p.Ap); the updates of dv, r and z (shares of r.z and r.r into partial_);
   /// p = z + beta p.
+  void setupVertices(int part, double dt);  // see stepImplicit()
   double massProducts(int part);
   void updateResidual(int part, double alpha);
   void updateDirection(int part, double beta);
