@@ -212,6 +212,7 @@ class MassSpring {
   /// part's share of p.Ap); the updates of dv, r and z (shares of r.z and r.r into partial_);
   /// p = z + beta p.
   void setupVertices(int part, double dt);  // see stepImplicit()
+  void finishStep(int part, double dt, bool compare);
   double massProducts(int part);
   void updateResidual(int part, double alpha);
   void updateDirection(int part, double beta);

@@ -1147,6 +1147,67 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::setupVertices
   for (int k = 0; k < 4; ++k) partial_[part].sum[k] = sums[k];
 }
 
+// The step's last pass over the vertices, compiled twice as the set-up's vertex loop is, each
+// lane doing the scalar code's operations in its order.
+__attribute__((target_clones("avx2", "default"))) void MassSpring::finishStep(int part, double dt,
+                                                                              bool compare) {
+  // The new velocities and positions; each extrapolation's miss of this step's answer (summed,
+  // and which was clearly the closer at each vertex: see stepImplicit()); the fastest speed and
+  // whether every position and speed is finite. The sums go to partial_[part]: the linear and
+  // quadratic misses, the fastest speed, 1 where all were finite (else 0). The misses compare
+  // extrapolations from three past answers only where there were three (`compare`).
+  const auto [begin, end] = rangeOf(mesh_->vertexSlots(), part);
+  const Vec3* warm = warm_.data();
+  const Vec3* warm_prev = warm_prev_.data();
+  const Vec3* warm_prev2 = warm_prev2_.data();
+  unsigned char* quadratic_at = quadratic_at_.data();
+  const unsigned char* alive = mesh_->vertexAliveFlags().data();
+  const unsigned char* fixed = fixed_.data();
+  const Vec3* dv = dv_.data();
+  Vec3* velocity = mesh_->velocities().data();
+  Vec3* current = mesh_->currentPositions().data();
+  double linear_miss = 0.0, quadratic_miss = 0.0;
+  double worst2 = 0.0, finite = 1.0;  // as scanSpeeds() finds them, in the same pass
+  for (int v = begin; v < end; ++v) {
+    if (!alive[v]) continue;
+    if (fixed[v]) {
+      velocity[v].setZero();
+      if (!current[v].allFinite()) finite = 0.0;
+      continue;
+    }
+    V4 w, wp, wpp, d, u, x;
+    load3(warm[v], &w);
+    load3(warm_prev[v], &wp);
+    load3(warm_prev2[v], &wpp);
+    load3(dv[v], &d);
+    load3(velocity[v], &u);
+    load3(current[v], &x);
+    const V4 linear = 2.0 * w - wp;         // linearGuess()
+    const V4 curve = (w - 2.0 * wp) + wpp;  // curvature()
+    const V4 miss = d - linear;
+    const V4 off = miss - curve;
+    const double qm = sum3(off * off), lm = sum3(miss * miss);
+    quadratic_at[v] = !compare                    ? kLinearCloser
+                      : qm * kClearlyCloser2 < lm ? kQuadraticCloser
+                      : lm * kClearlyCloser2 < qm ? kLinearCloser
+                                                  : kEitherCloser;
+    linear_miss += lm;
+    quadratic_miss += qm;
+    u += d;
+    x += dt * u;
+    velocity[v] = Vec3(u[0], u[1], u[2]);
+    current[v] = Vec3(x[0], x[1], x[2]);
+    // Any infinity or NaN among them makes this NaN (x - x): one test for both vectors.
+    const V4 nan_if_not_finite = (x - x) + (u - u);
+    if (!(sum3(nan_if_not_finite) == 0.0)) finite = 0.0;
+    worst2 = std::max(worst2, sum3(u * u));
+  }
+  partial_[part].sum[0] = linear_miss;
+  partial_[part].sum[1] = quadratic_miss;
+  partial_[part].sum[2] = std::sqrt(worst2);
+  partial_[part].sum[3] = finite;
+}
+
 bool MassSpring::stepImplicit(double dt) {
   // Linearly-implicit backward Euler: (M (1 + h alpha) + h^2 K) dv = h (f0 + h K v0), solved by
   // CG preconditioned by block-Jacobi, with the clusters' whole blocks on their vertices (see
@@ -1253,47 +1314,7 @@ bool MassSpring::stepImplicit(double dt) {
   // 20k and 6,211 -> 6,039 at 80k against one choice for the whole mesh; a choice by every
   // vertex's own misses alone (any ratio) had cost the cut block of the tests 1%. The misses
   // compare extrapolations from three past answers only where there were three.
-  parallel([&](int part) {
-    const auto [begin, end] = rangeOf(n, part);
-    const Vec3* warm = warm_.data();
-    const Vec3* warm_prev = warm_prev_.data();
-    const Vec3* warm_prev2 = warm_prev2_.data();
-    unsigned char* quadratic_at = quadratic_at_.data();
-    const unsigned char* alive = mesh_->vertexAliveFlags().data();
-    const unsigned char* fixed = fixed_.data();
-    const Vec3* dv = dv_.data();
-    Vec3* velocity = mesh_->velocities().data();
-    Vec3* current = mesh_->currentPositions().data();
-    const bool compare = history >= 3;
-    double linear_miss = 0.0, quadratic_miss = 0.0;
-    double worst2 = 0.0, finite = 1.0;  // as scanSpeeds() finds them, in the same pass
-    for (int v = begin; v < end; ++v) {
-      if (!alive[v]) continue;
-      if (fixed[v]) {
-        velocity[v].setZero();
-        if (!current[v].allFinite()) finite = 0.0;
-        continue;
-      }
-      const Vec3 linear = linearGuess(warm[v], warm_prev[v]);
-      const Vec3 curve = curvature(warm[v], warm_prev[v], warm_prev2[v]);
-      const Vec3 miss = dv[v] - linear;
-      const double qm = (miss - curve).squaredNorm(), lm = miss.squaredNorm();
-      quadratic_at[v] = !compare                    ? kLinearCloser
-                        : qm * kClearlyCloser2 < lm ? kQuadraticCloser
-                        : lm * kClearlyCloser2 < qm ? kLinearCloser
-                                                    : kEitherCloser;
-      linear_miss += lm;
-      quadratic_miss += qm;
-      velocity[v] += dv[v];
-      current[v] += dt * velocity[v];
-      if (!(current[v].allFinite() && velocity[v].allFinite())) finite = 0.0;
-      worst2 = std::max(worst2, velocity[v].squaredNorm());
-    }
-    partial_[part].sum[0] = linear_miss;
-    partial_[part].sum[1] = quadratic_miss;
-    partial_[part].sum[2] = std::sqrt(worst2);
-    partial_[part].sum[3] = finite;
-  });
+  parallel([&](int part) { finishStep(part, dt, history >= 3); });
   quadratic_next_ = history >= 3 && partialSum(1) < partialSum(0);
   warm_history_ = std::min(history + 1, 3);
   warm_prev2_.swap(warm_prev_);
