@@ -820,7 +820,9 @@ int Cutter::groupsAround(int v) const {
     star_stamp_[star[i]] = star_call_;
     star_place_[star[i]] = i;
   }
-  // A face is marked only if each of its vertices is on a marked face.
+  // A face is marked only if each of its vertices is on a marked face. Each face between two star
+  // tets is looked at once, from the tet earlier in the star (from the other side it joined what
+  // was joined already: the same groups, the same roots, half the marked-face lookups).
   const bool any_marked = markedAt(v);
   for (int i = 0; i < n; ++i) {
     const TetVerts& tv = mesh_->tet(star[i]);
@@ -828,7 +830,7 @@ int Cutter::groupsAround(int v) const {
       if (tv[f] == v) continue;  // the face opposite v does not hold it
       const int u = mesh_->neighbor(star[i], f);
       if (u < 0) continue;
-      if (star_stamp_[u] != star_call_) continue;
+      if (star_stamp_[u] != star_call_ || star_place_[u] < i) continue;
       const int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]];
       if (any_marked && markedAt(a) && markedAt(b) && markedAt(c) &&
           marked_.count(sortedFace(a, b, c)))
