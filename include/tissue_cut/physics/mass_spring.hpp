@@ -191,9 +191,6 @@ class MassSpring {
   double strongThreshold(double dt) const;
   void rescanStrong(double dt);                         // strong_ from every spring
   void updateStrong(const std::vector<int>& vertices);  // strong_ at these vertices again
-  /// f(u) for each vertex u on a tet of v, other than v, once each.
-  template <class F>
-  void forEachNeighbour(int v, F&& f);
   /// f(u, spring) for each spring of v: its other end and its index in springs_.
   template <typename F>
   void forEachSpring(int v, F&& f) const;
@@ -347,8 +344,6 @@ class MassSpring {
     std::array<int, kMaxCluster> vertices;
   };
   std::vector<ClusterSet> cluster_sets_;
-  std::vector<unsigned> neighbour_seen_;  // forEachNeighbour()'s stamps: each neighbour once
-  unsigned neighbour_stamp_ = 0;
   std::vector<unsigned> changed_seen_;  // updateStrong()'s scratch: the changed vertices
   unsigned changed_stamp_ = 0;
   double loaded_coupling_ = 0.0;  // the loaded mesh's p99 k / lighter mass, per E / density

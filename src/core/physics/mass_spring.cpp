@@ -601,18 +601,6 @@ void MassSpring::rescanStrong(double dt) {
   clusters_stale_ = true;
 }
 
-template <class F>
-void MassSpring::forEachNeighbour(int v, F&& f) {
-  nextStamp(&neighbour_seen_, &neighbour_stamp_, mesh_->vertexSlots());
-  neighbour_seen_[v] = neighbour_stamp_;
-  for (int t : mesh_->vertexTets(v))
-    for (int u : mesh_->tet(t)) {
-      if (neighbour_seen_[u] == neighbour_stamp_) continue;
-      neighbour_seen_[u] = neighbour_stamp_;
-      f(u);
-    }
-}
-
 template <typename F>
 void MassSpring::forEachSpring(int v, F&& f) const {
   if (v < static_cast<int>(springs_from_.size()))
@@ -638,8 +626,8 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
   // neighbour once per tet around it had made this 64% of follow()'s instructions).
   const auto kept = static_cast<std::ptrdiff_t>(strong_.size());
   // Each spring at a changed vertex once: from its lower end's list where that end changed, else
-  // looked up from the higher end (a lookup for every neighbour of every changed vertex had been
-  // a third of follow()).
+  // from the higher end's (walking each changed vertex's neighbours and looking each one's spring
+  // up had been half of this).
   auto test = [&](int spring) {
     const double ratio = strongRatio(spring, strong_dt_);
     if (ratio > 0) strong_.push_back({{springs_[spring].a, springs_[spring].b}, ratio});
@@ -648,11 +636,9 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
     if (!mesh_->vertexAlive(v) || fixed_[v]) continue;  // none of its springs is strong
     if (v < static_cast<int>(springs_from_.size()))
       for (const SpringRef& r : springs_from_[v]) test(r.index);
-    forEachNeighbour(v, [&](int u) {
-      if (u > v || changed(u)) return;  // taken from u's list
-      const int spring = findSpring(u, v);
-      if (spring >= 0) test(spring);
-    });
+    if (v < static_cast<int>(springs_to_.size()))
+      for (const SpringRef& r : springs_to_[v])
+        if (!changed(r.other)) test(r.index);  // else taken from that end's list
   }
   std::sort(strong_.begin() + kept, strong_.end());
   std::inplace_merge(strong_.begin(), strong_.begin() + kept, strong_.end());
