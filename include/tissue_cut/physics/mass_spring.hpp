@@ -209,6 +209,7 @@ class MassSpring {
   /// part's share of p.Ap); the updates of dv, r and z (shares of r.z and r.r into partial_);
   /// p = z + beta p.
   void setupVertices(int part, double dt);  // see stepImplicit()
+  void localIterations(int m, int total, double tolerance2, double rr);  // see presolveLocally()
   void finishStep(int part, double dt, bool compare);
   double massProducts(int part);
   void updateResidual(int part, double alpha);
@@ -244,7 +245,7 @@ class MassSpring {
   std::vector<unsigned> local_seen_;
   unsigned local_stamp_ = 0;
   std::vector<LocalSpring> local_springs_;
-  std::vector<Vec3> local_r_, local_z_, local_p_, local_q_, local_x_;
+  std::vector<Padded3> local_r_, local_z_, local_p_, local_q_, local_x_;  // padded rows
   long long local_presolves_ = 0;
   /// The parts' shares of sum k of the last parallel loop, added in part order.
   double partialSum(int k) const;

@@ -395,6 +395,9 @@ inline void applyBlock(const Sym& k, const V4& d, V4* out) {
          V4{k.xz, k.yz, k.zz, 0.0} * dz;
 }
 
+// A dot product's lanes added as Eigen adds a 3-vector's, (x + y) + z.
+inline double sum3(const V4& m) { return (m[0] + m[1]) + m[2]; }
+
 }  // namespace
 
 // Compiled twice, the AVX2 copy chosen where the CPU has it: a vertex's p and sum are one
@@ -796,6 +799,68 @@ double MassSpring::applyClusters(const Padded3* r, Padded3* z, Padded3* p) {
   return change;
 }
 
+// The local pre-solve's PCG, compiled twice as CG's vertex loops are (its vectors in padded rows,
+// each lane doing the scalar code's operations in its order).
+__attribute__((target_clones("avx2", "default"))) void MassSpring::localIterations(
+    int m, int total, double tolerance2, double rr) {
+  // PCG on the first m of local_vertices_ (the rest, their neighbours, held fixed: their residuals
+  // follow each step, A dx there); local_r_ and the rest zero on entry.
+  const double md = mass_damping_;
+  const int* vertices = local_vertices_.data();
+  const Block* inv_diag = inv_diag_.data();
+  const Block* blocks = blocks_.data();
+  const double* inertia = inertia_.data();
+  const unsigned char* held = held_.data();
+  V4* r_all = reinterpret_cast<V4*>(r_.data());
+  V4* lr = reinterpret_cast<V4*>(local_r_.data());
+  V4* lz = reinterpret_cast<V4*>(local_z_.data());
+  V4* lp = reinterpret_cast<V4*>(local_p_.data());
+  V4* lq = reinterpret_cast<V4*>(local_q_.data());
+  V4* lx = reinterpret_cast<V4*>(local_x_.data());
+  double rz = 0.0, rr_local = 0.0;
+  for (int i = 0; i < m; ++i) {
+    const int v = vertices[i];
+    lr[i] = r_all[v];
+    applyBlock(inv_diag[v], lr[i], &lz[i]);
+    lp[i] = lz[i];
+    rz += sum3(lr[i] * lz[i]);
+    rr_local += sum3(lr[i] * lr[i]);
+  }
+  const double goal = kLocalGoal * std::max(rr - rr_local, tolerance2);
+  int it = 0;
+  for (; it < kLocalIterations && rr_local > goal && rz > 0; ++it) {
+    for (int i = 0; i < m; ++i) lq[i] = (md * inertia[vertices[i]]) * lp[i];
+    for (int i = m; i < total; ++i) lq[i] = V4{0, 0, 0, 0};
+    for (const LocalSpring& s : local_springs_) {
+      const V4 d = s.b < m ? lp[s.a] - lp[s.b] : lp[s.a];
+      V4 r;
+      applyBlock(blocks[s.block], d, &r);
+      lq[s.a] += r;
+      lq[s.b] -= r;
+    }
+    double pq = 0.0;
+    for (int i = 0; i < m; ++i) pq += sum3(lp[i] * lq[i]);
+    if (!(pq > 0)) break;
+    const double alpha = rz / pq;
+    double rz_next = 0.0;
+    rr_local = 0.0;
+    for (int i = 0; i < m; ++i) {
+      lx[i] += alpha * lp[i];
+      lr[i] -= alpha * lq[i];
+      applyBlock(inv_diag[vertices[i]], lr[i], &lz[i]);
+      rz_next += sum3(lr[i] * lz[i]);
+      rr_local += sum3(lr[i] * lr[i]);
+    }
+    for (int i = m; i < total; ++i) {
+      const int v = vertices[i];
+      if (!held[v]) r_all[v] -= alpha * lq[i];  // held rows stay zero
+    }
+    const double beta = rz_next / rz;
+    rz = rz_next;
+    for (int i = 0; i < m; ++i) lp[i] = lz[i] + beta * lp[i];
+  }
+}
+
 void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr_total) {
   const double rr = *rr_total;
   if (!params_.local_presolve || !(rr > kLocalTrigger * tolerance2)) return;
@@ -868,56 +933,12 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
     rz_before += r_[v].v.dot(z_[v].v);
     rr_before += r_[v].v.squaredNorm();
   }
-  for (auto* x : {&local_r_, &local_z_, &local_p_, &local_q_, &local_x_})
-    x->assign(total, Vec3::Zero());
-  // Local PCG on the rows solved for; the neighbours' residuals follow each step (A dx there).
-  const double md = mass_damping_;
-  double rz = 0.0, rr_local = 0.0;
+  for (auto* x : {&local_r_, &local_z_, &local_p_, &local_q_, &local_x_}) x->assign(total, {});
+  localIterations(m, total, tolerance2, rr);
   for (int i = 0; i < m; ++i) {
     const int v = local_vertices_[i];
-    local_r_[i] = r_[v].v;
-    local_z_[i] = apply(inv_diag_[v], local_r_[i]);
-    local_p_[i] = local_z_[i];
-    rz += local_r_[i].dot(local_z_[i]);
-    rr_local += local_r_[i].squaredNorm();
-  }
-  const double goal = kLocalGoal * std::max(rr - rr_local, tolerance2);
-  int it = 0;
-  for (; it < kLocalIterations && rr_local > goal && rz > 0; ++it) {
-    for (int i = 0; i < m; ++i)
-      local_q_[i] = (md * inertia_[local_vertices_[i]]) * local_p_[i];
-    for (int i = m; i < total; ++i) local_q_[i] = Vec3::Zero();
-    for (const LocalSpring& s : local_springs_) {
-      const Vec3 d = s.b < m ? Vec3(local_p_[s.a] - local_p_[s.b]) : local_p_[s.a];
-      const Vec3 r = apply(blocks_[s.block], d);
-      local_q_[s.a] += r;
-      local_q_[s.b] -= r;
-    }
-    double pq = 0.0;
-    for (int i = 0; i < m; ++i) pq += local_p_[i].dot(local_q_[i]);
-    if (!(pq > 0)) break;
-    const double alpha = rz / pq;
-    double rz_next = 0.0;
-    rr_local = 0.0;
-    for (int i = 0; i < m; ++i) {
-      local_x_[i] += alpha * local_p_[i];
-      local_r_[i] -= alpha * local_q_[i];
-      local_z_[i] = apply(inv_diag_[local_vertices_[i]], local_r_[i]);
-      rz_next += local_r_[i].dot(local_z_[i]);
-      rr_local += local_r_[i].squaredNorm();
-    }
-    for (int i = m; i < total; ++i) {
-      const int v = local_vertices_[i];
-      if (!held_[v]) r_[v].v -= alpha * local_q_[i];  // held rows stay zero
-    }
-    const double beta = rz_next / rz;
-    rz = rz_next;
-    for (int i = 0; i < m; ++i) local_p_[i] = local_z_[i] + beta * local_p_[i];
-  }
-  for (int i = 0; i < m; ++i) {
-    const int v = local_vertices_[i];
-    dv_[v] += local_x_[i];
-    r_[v].v = local_r_[i];
+    dv_[v] += local_x_[i].v;
+    r_[v].v = local_r_[i].v;
   }
   // CG's start there again: z = P r, p = z; the sums changed by the difference.
   double rz_after = 0.0, rr_after = 0.0;
@@ -975,7 +996,6 @@ void MassSpring::sizeStepBuffers() {
 // load or store). Each lane does the scalar code's operations in its order, and a dot product
 // adds its lanes as Eigen's does for a 3-vector, (x + y) + z: the same bits.
 namespace {
-inline double sum3(const V4& m) { return (m[0] + m[1]) + m[2]; }
 // A 3-vector's row as a vector, the fourth lane zero: its first two doubles in one load (through
 // a pointer, as applyBlock() returns: see there).
 typedef double V2 __attribute__((vector_size(16), aligned(8), may_alias));
