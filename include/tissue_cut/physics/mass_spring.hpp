@@ -205,12 +205,13 @@ class MassSpring {
   /// z = the clusters' blocks' inverses times r on the clusters' vertices (also into *p when
   /// given); returns the change this makes to sum r.z.
   double applyClusters(const Padded3* r, Padded3* z, Padded3* p);
+  /// The implicit step's vertex passes, a part of the vertices each (see stepImplicit()): after
+  /// the springs' set-up, b, the diagonal blocks and CG's start; the last, the new state.
+  void setupVertices(int part, double dt);
+  void finishStep(int part, double dt, bool compare);
   /// CG's vertex loops (see stepImplicit()): A p from the products' buffers (returns this
   /// part's share of p.Ap); the updates of dv, r and z (shares of r.z and r.r into partial_);
   /// p = z + beta p.
-  void setupVertices(int part, double dt);  // see stepImplicit()
-  void localIterations(int m, int total, double tolerance2, double rr);  // see presolveLocally()
-  void finishStep(int part, double dt, bool compare);
   double massProducts(int part);
   void updateResidual(int part, double alpha);
   void updateDirection(int part, double beta);
@@ -246,6 +247,8 @@ class MassSpring {
   unsigned local_stamp_ = 0;
   std::vector<LocalSpring> local_springs_;
   std::vector<Padded3> local_r_, local_z_, local_p_, local_q_, local_x_;  // padded rows
+  /// The local PCG on the first m rows of local_vertices_ (see presolveLocally()).
+  void localIterations(int m, int total, double tolerance2, double rr);
   long long local_presolves_ = 0;
   /// The parts' shares of sum k of the last parallel loop, added in part order.
   double partialSum(int k) const;
