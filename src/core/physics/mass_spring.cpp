@@ -31,9 +31,14 @@ void addTo(Sym* m, const Sym& k) {
 
 // The warm start's guesses from the last three answers (newest first): the linear extrapolation,
 // and what the quadratic one adds to it.
-inline Vec3 linearGuess(const Vec3& w, const Vec3& w_prev) { return 2.0 * w - w_prev; }
-inline Vec3 curvature(const Vec3& w, const Vec3& w_prev, const Vec3& w_prev2) {
-  return w - 2.0 * w_prev + w_prev2;
+// For 3-vectors and for finishStep()'s padded ones (through a pointer: see applyBlock()).
+template <class V>
+inline void linearGuess(const V& w, const V& w_prev, V* out) {
+  *out = 2.0 * w - w_prev;
+}
+template <class V>
+inline void curvature(const V& w, const V& w_prev, const V& w_prev2, V* out) {
+  *out = (w - 2.0 * w_prev) + w_prev2;
 }
 
 // The inverse of a symmetric block by cofactors; false when it is not positive definite. Always
@@ -1188,8 +1193,9 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::finishStep(in
     load3(dv[v], &d);
     load3(velocity[v], &u);
     load3(current[v], &x);
-    const V4 linear = 2.0 * w - wp;         // linearGuess()
-    const V4 curve = (w - 2.0 * wp) + wpp;  // curvature()
+    V4 linear, curve;
+    linearGuess(w, wp, &linear);
+    curvature(w, wp, wpp, &curve);
     const V4 miss = d - linear;
     const V4 off = miss - curve;
     const double qm = sum3(off * off), lm = sum3(miss * miss);
@@ -1264,11 +1270,13 @@ bool MassSpring::stepImplicit(double dt) {
       } else if (history == 1) {
         dv[v] = warm[v];
       } else {
-        const Vec3 linear = linearGuess(warm[v], warm_prev[v]);
+        linearGuess(warm[v], warm_prev[v], &dv[v]);
         const unsigned char closer = per_vertex ? quadratic_at[v] : kEitherCloser;
-        dv[v] = quadratic && (closer == kEitherCloser ? quadratic_next : closer == kQuadraticCloser)
-                    ? Vec3(linear + curvature(warm[v], warm_prev[v], warm_prev2[v]))
-                    : linear;
+        if (quadratic && (closer == kEitherCloser ? quadratic_next : closer == kQuadraticCloser)) {
+          Vec3 curve;
+          curvature(warm[v], warm_prev[v], warm_prev2[v], &curve);
+          dv[v] += curve;
+        }
       }
     }
   });
