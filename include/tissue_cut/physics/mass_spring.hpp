@@ -160,10 +160,24 @@ class MassSpring {
     alignas(64) double ux[kSize], uy[kSize], uz[kSize];  // u_b - u_a
     alignas(64) double wx[kSize], wy[kSize], wz[kSize];  // w_a - w_b, then K (w_a - w_b)
     alignas(64) double stiffness[kSize], rest[kSize];
-    alignas(64) double kxx[kSize], kxy[kSize], kxz[kSize], kyy[kSize], kyz[kSize], kzz[kSize];
     alignas(64) double fx[kSize], fy[kSize], fz[kSize];  // f + K (u_b - u_a) / h
   };
-  static void springTerms(SpringBatch* s, double h2, double inv_dt);
+  /// A batch's stiffness blocks, one array per entry: springTerms() writes them where the CG
+  /// products read them (blocks_), so the set-up's scatter does not copy them.
+  struct BlockBatch {
+    alignas(64) double xx[SpringBatch::kSize], xy[SpringBatch::kSize], xz[SpringBatch::kSize];
+    alignas(64) double yy[SpringBatch::kSize], yz[SpringBatch::kSize], zz[SpringBatch::kSize];
+    Block at(int j) const { return {xx[j], xy[j], xz[j], yy[j], yz[j], zz[j]}; }
+  };
+  static void springTerms(SpringBatch* s, BlockBatch* k, double h2, double inv_dt);
+  /// A packed spring's block (see blocks_).
+  Block blockAt(int slot) const {
+    const unsigned at = static_cast<unsigned>(slot);
+    return blocks_[at / SpringBatch::kSize].at(at % SpringBatch::kSize);
+  }
+  /// The first slot of a part's packed springs in ends_ and blocks_: a batch's first, and past
+  /// every slot the part before can fill.
+  int packedBegin(int part) const;
   // Cluster preconditioning. Block-Jacobi inverts each vertex's own 3x3 block of A; where a
   // spring is far stiffer than its lighter end's inertia over a step (the corners of a cut's
   // slivers: h^2 k of kStrongCoupling m and more), the ends' motion together, which only their
@@ -304,7 +318,8 @@ class MassSpring {
   std::vector<unsigned char> follow_matrix_;  // follow()'s edges among them (n x n, upper)
   static constexpr int kEdgeMatrixMax = 256;  // more vertices: the edges are sorted instead
   // The implicit step's work space, kept between steps so that a tick allocates nothing.
-  std::vector<Block> blocks_;  // h^2-scaled stiffness blocks of this step, packed as ends_
+  // h^2-scaled stiffness blocks of this step, packed as ends_: a slot's in its batch's lane.
+  std::vector<BlockBatch> blocks_;
   // The springs with a free end, packed in order within each part's range of springs_ (see
   // assembleSprings()): their ends and blocks, where each part's ends, and each spring's place.
   std::vector<std::array<int, 2>> ends_;

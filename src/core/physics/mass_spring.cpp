@@ -375,6 +375,15 @@ std::pair<int, int> MassSpring::rangeOf(int count, int part) const {
   return {static_cast<int>(count * part / parts), static_cast<int>(count * (part + 1) / parts)};
 }
 
+int MassSpring::packedBegin(int part) const {
+  // Part p's range starts at first_p; its slots at first_p rounded up to a batch, plus kSize p.
+  // It packs at most first_{p+1} - first_p springs, so its slots, and the lanes of its last
+  // batch, end before first_{p+1} + kSize (p + 1), and so before part p + 1's first slot.
+  constexpr int kSize = SpringBatch::kSize;
+  const int first = rangeOf(static_cast<int>(springs_.size()), part).first;
+  return (first + kSize - 1) / kSize * kSize + kSize * part;
+}
+
 double MassSpring::partialSum(int k) const {
   double sum = 0.0;
   for (const Partial& p : partial_) sum += p.sum[k];
@@ -420,28 +429,36 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::springProduct
   // The part's own buffer, zero on entry: massProducts(), which reads it, zeroes each row.
   Padded3* out = product_acc_[part].data();
   // The part's springs as assembleSprings() packed them (none whose ends are both held).
-  const int begin = rangeOf(static_cast<int>(springs_.size()), part).first;
+  const int begin = packedBegin(part);
   const int end = packed_end_[part];
   const std::array<int, 2>* ends = ends_.data();  // 8 bytes a spring read, not 24
-  const Block* blocks = blocks_.data();
+  const BlockBatch* blocks = blocks_.data();
   static_assert(sizeof(Padded3) == sizeof(V4) && alignof(Padded3) >= alignof(V4),
                 "a padded vector is four doubles");
   const V4* p4 = reinterpret_cast<const V4*>(pv);
   V4* out4 = reinterpret_cast<V4*>(out);
   int run = -1;
   V4 pa = {0, 0, 0, 0}, sum = {0, 0, 0, 0};
-  for (int i = begin; i < end; ++i) {
-    const int a = ends[i][0], b = ends[i][1];
-    if (a != run) {
-      if (run >= 0) out4[run] += sum;
-      run = a;
-      pa = p4[a];
-      sum = V4{0, 0, 0, 0};
+  // A batch's blocks at a time (the part's slots start at a batch's first): a lane's index, not
+  // a slot's batch and lane, a spring.
+  constexpr int kSize = SpringBatch::kSize;
+  for (int first = begin; first < end; first += kSize) {
+    const BlockBatch& kb = blocks[first / kSize];
+    const int count = std::min(kSize, end - first);
+    const std::array<int, 2>* batch_ends = ends + first;
+    for (int j = 0; j < count; ++j) {
+      const int a = batch_ends[j][0], b = batch_ends[j][1];
+      if (a != run) {
+        if (run >= 0) out4[run] += sum;
+        run = a;
+        pa = p4[a];
+        sum = V4{0, 0, 0, 0};
+      }
+      V4 r;
+      applyBlock(kb.at(j), pa - p4[b], &r);
+      sum += r;
+      out4[b] -= r;
     }
-    V4 r;
-    applyBlock(blocks[i], pa - p4[b], &r);
-    sum += r;
-    out4[b] -= r;
   }
   if (run >= 0) out4[run] += sum;
 }
@@ -481,8 +498,8 @@ void MassSpring::assembleSprings(int part, double dt) {
   // on the vector unit, square roots and divisions included), then the sums scattered.
   SpringBatch s;
   int* packed_at = packed_at_.data();
-  int batch = begin;  // the batch's first slot in ends_ and blocks_
-  packed_end_[part] = begin;
+  int batch = packedBegin(part);  // the batch's first slot in ends_ and blocks_
+  packed_end_[part] = batch;
   for (int next = begin; next < end; batch += SpringBatch::kSize) {
     int count = 0;
     for (; next < end && count < SpringBatch::kSize; ++next) {
@@ -508,7 +525,8 @@ void MassSpring::assembleSprings(int part, double dt) {
       s.ux[j] = s.uy[j] = s.uz[j] = s.wx[j] = s.wy[j] = s.wz[j] = 0.0;
       s.stiffness[j] = s.rest[j] = 0.0;
     }
-    springTerms(&s, h2, inv_dt);
+    BlockBatch& kb = blocks_[batch / SpringBatch::kSize];  // batch is a batch's first slot
+    springTerms(&s, &kb, h2, inv_dt);
     for (int j = 0; j < count; ++j) {
       const int i = batch + j;
       const int a = ends_[i][0], b = ends_[i][1];
@@ -519,8 +537,7 @@ void MassSpring::assembleSprings(int part, double dt) {
         run_w.setZero();
         run_k = {0, 0, 0, 0, 0, 0};
       }
-      const Block k{s.kxx[j], s.kxy[j], s.kxz[j], s.kyy[j], s.kyz[j], s.kzz[j]};
-      blocks_[i] = k;
+      const Block k = kb.at(j);
       const Vec3 fb(s.fx[j], s.fy[j], s.fz[j]);
       run_b += fb;
       acc[b] -= fb;
@@ -540,7 +557,7 @@ void MassSpring::assembleSprings(int part, double dt) {
 // multiplications had kept both vector multipliers busy), AVX2 (four) or SSE2 (two). None uses
 // fused multiply-adds (-ffp-contract=off for this file: AVX-512 has them): the same bits each way.
 __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::springTerms(
-    SpringBatch* s, double h2, double inv_dt) {
+    SpringBatch* __restrict s, BlockBatch* __restrict k, double h2, double inv_dt) {
   // Per spring of the batch, from its end-to-end vector d = x_b - x_a, velocity difference
   // u_b - u_a and warm-start difference w_a - w_b: its stiffness block K, f + K (u_b - u_a) / h
   // (into f*) and K (w_a - w_b) (over w*). The force on a is f = k (|d| - L) d / |d|, and to
@@ -560,7 +577,7 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::sp
     const double kt = h2 * stiffness * transverse, kn = h2 * stiffness - kt;
     const double xx = kt + kn * nx * nx, xy = kn * nx * ny, xz = kn * nx * nz;
     const double yy = kt + kn * ny * ny, yz = kn * ny * nz, zz = kt + kn * nz * nz;
-    s->kxx[j] = xx, s->kxy[j] = xy, s->kxz[j] = xz, s->kyy[j] = yy, s->kyz[j] = yz, s->kzz[j] = zz;
+    k->xx[j] = xx, k->xy[j] = xy, k->xz[j] = xz, k->yy[j] = yy, k->yz[j] = yz, k->zz[j] = zz;
     const double ux = s->ux[j], uy = s->uy[j], uz = s->uz[j];
     s->fx[j] = f * dx + inv_dt * (xx * ux + xy * uy + xz * uz);
     s->fy[j] = f * dy + inv_dt * (xy * ux + yy * uy + yz * uz);
@@ -771,7 +788,7 @@ void MassSpring::fillCluster(Cluster* cluster) {
   for (int s = 0; s < c.num_springs; ++s) {
     const auto& [spring, i, j] = c.springs[s];
     // A cluster's vertices are free: its springs are packed (see assembleSprings()).
-    const Block& k = blocks_[packed_at_[spring]];
+    const Block k = blockAt(packed_at_[spring]);
     put(i, j, k, -1.0);  // A p at a has -h^2 K p_b
     put(j, i, k, -1.0);
   }
@@ -813,7 +830,6 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::localIteratio
   const double md = mass_damping_;
   const int* vertices = local_vertices_.data();
   const Block* inv_diag = inv_diag_.data();
-  const Block* blocks = blocks_.data();
   const double* inertia = inertia_.data();
   const unsigned char* held = held_.data();
   V4* r_all = reinterpret_cast<V4*>(r_.data());
@@ -839,7 +855,7 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::localIteratio
     for (const LocalSpring& s : local_springs_) {
       const V4 d = s.b < m ? lp[s.a] - lp[s.b] : lp[s.a];
       V4 r;
-      applyBlock(blocks[s.block], d, &r);
+      applyBlock(blockAt(s.block), d, &r);
       lq[s.a] += r;
       lq[s.b] -= r;
     }
@@ -983,8 +999,11 @@ void MassSpring::sizeStepBuffers() {
   for (auto* v : {&r_, &z_, &p_, &ap_}) resizeSlots(v, n, Padded3{});
   resizeSlots(&inv_diag_, n);
   resizeSlots(&held_, n);
-  resizeSlots(&blocks_, springs_.size());
-  resizeSlots(&ends_, springs_.size());
+  // Each part's slots start at a batch's first, after the part before's last (see packedBegin()).
+  const int slots = packedBegin(parts - 1) + static_cast<int>(springs_.size()) -
+                    rangeOf(static_cast<int>(springs_.size()), parts - 1).first;
+  resizeSlots(&blocks_, slots / SpringBatch::kSize + 1);
+  resizeSlots(&ends_, slots);
   resizeSlots(&packed_at_, springs_.size());
   packed_end_.resize(parts);
   acc_.resize(parts);
