@@ -332,12 +332,16 @@ class MassSpring {
   // Each part sums its springs' terms here (per part, per vertex). Zero between uses: the
   // vertex loop that reads a row (of every part's buffer) zeroes it, so no pass of its own clears
   // them. (Each part cleared its whole buffer before: with two threads both cleared all rows.)
-  std::vector<std::vector<Vec3>> acc_;  // the set-up's (assembleSprings())
-  // The CG products' (springProducts()), padded. Not acc_ padded too: assembleSprings()' scatter
-  // into padded rows took 27% longer on the 20k organ (measured, not understood).
-  std::vector<std::vector<Padded3>> product_acc_;
-  std::vector<std::vector<Vec3>> start_acc_;  // the springs' part of A dv for the warm start
-  std::vector<std::vector<Block>> diag_acc_;
+  // All in padded rows, so that the scatters add whole vectors (see assembleSprings()).
+  std::vector<std::vector<Padded3>> acc_;          // the set-up's (assembleSprings())
+  std::vector<std::vector<Padded3>> product_acc_;  // the CG products' (springProducts())
+  std::vector<std::vector<Padded3>> start_acc_;    // the springs' part of A dv for the warm start
+  // A vertex's block in a cache line: (xx, xy, xz, yy) and (yz, zz) each one vector.
+  struct alignas(64) PaddedBlock {
+    Block k{0, 0, 0, 0, 0, 0};
+    double pad[2] = {0, 0};
+  };
+  std::vector<std::vector<PaddedBlock>> diag_acc_;
   struct alignas(64) Partial {  // one part's shares of dot products, a cache line of its own
     double sum[4];
   };

@@ -396,6 +396,16 @@ namespace {
 // two SSE2 registers otherwise), read and written in place of a Padded3.
 typedef double V4 __attribute__((vector_size(32), may_alias));
 typedef long long I4 __attribute__((vector_size(32)));
+// Two doubles, read where only 8 bytes are sure to be aligned.
+typedef double V2 __attribute__((vector_size(16), aligned(8), may_alias));
+
+// The vector (x, y, z, 0) from three doubles: two halves joined (built in a stack slot, such a
+// vector waited for the stores before it; through a pointer, as applyBlock() returns).
+inline void join3(double x, double y, double z, V4* out) {
+  const V2 lo = {x, y};
+  const V2 hi = {z, 0.0};
+  *out = __builtin_shufflevector(lo, hi, 0, 1, 2, 3);
+}
 
 // *out = k d in the lanes of d (the fourth lane zero): three columns times three broadcasts,
 // each lane ((k.xx d.x + k.xy d.y) + k.xz d.z) and so on, as apply() does. Inlined into each copy
@@ -463,7 +473,11 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::springProduct
   if (run >= 0) out4[run] += sum;
 }
 
-void MassSpring::assembleSprings(int part, double dt) {
+// Compiled as springTerms() is (each copy calls springTerms()' copy of its own kind): the
+// scatter adds each spring's terms to a vertex's padded rows as whole vectors, each lane doing
+// the scalar code's operations in its order.
+__attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::assembleSprings(
+    int part, double dt) {
   // A part's springs: their forces, their stiffness blocks (kept scaled by h^2 for the CG
   // products), and their terms of the right-hand side, of the diagonal blocks and of A dv for
   // the warm start dv (so that CG's first residual needs no pass of its own), summed into the
@@ -479,19 +493,20 @@ void MassSpring::assembleSprings(int part, double dt) {
   const Vec3* x = mesh_->currentPositions().data();
   const Vec3* u = mesh_->velocities().data();
   const Vec3* w = dv_.data();
-  Vec3* acc = acc_[part].data();
-  Vec3* start = start_acc_[part].data();
-  Block* diag = diag_acc_[part].data();
+  V4* acc = reinterpret_cast<V4*>(acc_[part].data());
+  V4* start = reinterpret_cast<V4*>(start_acc_[part].data());
+  PaddedBlock* diag = diag_acc_[part].data();  // (xx, xy, xz, yy) and (yz, zz) as vectors
   const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
   // As in springProducts(): the first end's sums stay in registers along a run of its springs.
   int run = -1;
-  Vec3 run_b = Vec3::Zero(), run_w = Vec3::Zero();
-  Block run_k{0, 0, 0, 0, 0, 0};
+  V4 run_b = {0, 0, 0, 0}, run_w = {0, 0, 0, 0}, run_k = {0, 0, 0, 0};
+  V2 run_k2 = {0, 0};
   auto flush = [&] {
     if (run < 0) return;
     acc[run] += run_b;
     start[run] += run_w;
-    addTo(&diag[run], run_k);
+    *reinterpret_cast<V4*>(&diag[run]) += run_k;
+    *reinterpret_cast<V2*>(&diag[run].k.yz) += run_k2;
   };
   // A batch at a time in three loops: the springs' ends gathered into arrays of one coordinate
   // each, the arithmetic over those arrays (no loads from the mesh, no stores into it: it runs
@@ -533,19 +548,23 @@ void MassSpring::assembleSprings(int part, double dt) {
       if (a != run) {
         flush();
         run = a;
-        run_b.setZero();
-        run_w.setZero();
-        run_k = {0, 0, 0, 0, 0, 0};
+        run_b = run_w = run_k = V4{0, 0, 0, 0};
+        run_k2 = V2{0, 0};
       }
-      const Block k = kb.at(j);
-      const Vec3 fb(s.fx[j], s.fy[j], s.fz[j]);
+      V4 fb, kw, k;
+      join3(s.fx[j], s.fy[j], s.fz[j], &fb);
       run_b += fb;
       acc[b] -= fb;
-      const Vec3 kw(s.wx[j], s.wy[j], s.wz[j]);  // as springProducts() adds for dv
+      join3(s.wx[j], s.wy[j], s.wz[j], &kw);  // as springProducts() adds for dv
       run_w += kw;
       start[b] -= kw;
-      addTo(&run_k, k);
-      addTo(&diag[b], k);
+      const V2 k01 = {kb.xx[j], kb.xy[j]}, k23 = {kb.xz[j], kb.yy[j]};
+      const V2 k45 = {kb.yz[j], kb.zz[j]};
+      k = __builtin_shufflevector(k01, k23, 0, 1, 2, 3);
+      run_k += k;
+      run_k2 += k45;
+      *reinterpret_cast<V4*>(&diag[b]) += k;
+      *reinterpret_cast<V2*>(&diag[b].k.yz) += k45;
     }
     packed_end_[part] = batch + count;
   }
@@ -1009,11 +1028,11 @@ void MassSpring::sizeStepBuffers() {
   acc_.resize(parts);
   start_acc_.resize(parts);
   diag_acc_.resize(parts);
-  for (auto& e : acc_) resizeSlots(&e, n, Vec3::Zero());
+  for (auto& e : acc_) resizeSlots(&e, n, Padded3{});
   product_acc_.resize(parts);
   for (auto& e : product_acc_) resizeSlots(&e, n, Padded3{});
-  for (auto& e : start_acc_) resizeSlots(&e, n, Vec3::Zero());
-  for (auto& e : diag_acc_) resizeSlots(&e, n, Block{0, 0, 0, 0, 0, 0});
+  for (auto& e : start_acc_) resizeSlots(&e, n, Padded3{});
+  for (auto& e : diag_acc_) resizeSlots(&e, n, PaddedBlock{});
 }
 
 // CG's vertex loops, compiled twice as springProducts() (padded rows, a vertex's vector one
@@ -1022,7 +1041,6 @@ void MassSpring::sizeStepBuffers() {
 namespace {
 // A 3-vector's row as a vector, the fourth lane zero: its first two doubles in one load (through
 // a pointer, as applyBlock() returns: see there).
-typedef double V2 __attribute__((vector_size(16), aligned(8), may_alias));
 inline void load3(const Vec3& x, V4* out) {
   const V2 lo = *reinterpret_cast<const V2*>(x.data());
   const V2 hi = {x.z(), 0.0};
@@ -1123,9 +1141,9 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::setupVertices
   V4* p = reinterpret_cast<V4*>(p_.data());
   // The first part's sums through pointers of their own (the others' are added after, in the
   // same order): through acc_[q] each row reloaded the buffers' addresses after every store.
-  Vec3* acc0 = acc_[0].data();
-  Vec3* start0 = start_acc_[0].data();
-  Block* diag0 = diag_acc_[0].data();
+  V4* acc0 = reinterpret_cast<V4*>(acc_[0].data());
+  V4* start0 = reinterpret_cast<V4*>(start_acc_[0].data());
+  PaddedBlock* diag0 = diag_acc_[0].data();
   // The sums of the weight's impulse squared, |b|^2, r.z and r.r, one in each lane (each lane
   // adds as a scalar sum would; a held row adds zero to the first).
   V4 sums{0, 0, 0, 0};
@@ -1140,23 +1158,19 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::setupVertices
     Block diag{md, 0.0, 0.0, md, 0.0, md};
     load3(dv[v], &row);
     a = md * row;
-    load3(acc0[v], &row);
-    b += row;
-    load3(start0[v], &row);
-    a += row;
-    addTo(&diag, diag0[v]);
-    acc0[v].setZero();
-    start0[v].setZero();
-    diag0[v] = {0, 0, 0, 0, 0, 0};
+    b += acc0[v];
+    a += start0[v];
+    addTo(&diag, diag0[v].k);
+    acc0[v] = start0[v] = V4{0, 0, 0, 0};
+    diag0[v].k = {0, 0, 0, 0, 0, 0};
     for (int q = 1; q < parts; ++q) {
-      load3(acc_[q][v], &row);
-      b += row;
-      load3(start_acc_[q][v], &row);
-      a += row;
-      addTo(&diag, diag_acc_[q][v]);
-      acc_[q][v].setZero();
-      start_acc_[q][v].setZero();
-      diag_acc_[q][v] = {0, 0, 0, 0, 0, 0};
+      V4* acc = reinterpret_cast<V4*>(acc_[q].data());
+      V4* start = reinterpret_cast<V4*>(start_acc_[q].data());
+      b += acc[v];
+      a += start[v];
+      addTo(&diag, diag_acc_[q][v].k);
+      acc[v] = start[v] = V4{0, 0, 0, 0};
+      diag_acc_[q][v].k = {0, 0, 0, 0, 0, 0};
     }
     const bool held_v = held[v] != 0;
     const V4 bv = held_v ? V4{0, 0, 0, 0} : dt * b;
