@@ -484,10 +484,10 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   // part's own buffers (zero on entry: the set-up's vertex loop zeroes each row it has read).
   // A spring both of whose ends are held (fixed, as a tray holds the bottom of an organ) adds
   // only to rows that are zero: it is left out here and, through ends_, from every CG product.
-  // The part's other springs are packed, in order, from the start of its range of ends_ and
-  // blocks_: no free vertex's sums see another term. (Where removals left a vertex's springs in
-  // two runs with only such springs between, the two runs are now one: the same terms, added in
-  // another grouping. Keeping the old grouping with a flag a spring cost 6% of a step.)
+  // The part's other springs are packed, in order, into ends_ and blocks_ from the part's first
+  // slot (packedBegin()): no free vertex's sums see another term. (Where removals left a vertex's
+  // springs in two runs with only such springs between, the two runs are now one: the same terms,
+  // added in another grouping. Keeping the old grouping with a flag a spring cost 6% of a step.)
   const double h2 = dt * dt, inv_dt = 1.0 / dt;
   const unsigned char* held = held_.data();
   const Vec3* x = mesh_->currentPositions().data();
