@@ -18,7 +18,9 @@ prints the medians over --repeats runs of each:
                           log: the cutter on the ticks that replace no tet (following the blade,
                           and opening the cut where that waited), the cutter on the ticks that
                           replace tets, and the collapse queue
-  4x ratio                us/cut tet of the 80k mesh over that of the 20k mesh
+  4x ratio                us/cut tet of the 80k mesh over that of the 20k mesh (the medians'
+                          ratio, and the median and range of each repeat's own ratio; a
+                          repeat replays every size in turn, so the sizes' runs alternate)
   machine check           bench_core's implicit step of its 20k block on one thread and on two,
                           before and after the replays (the machine's speed drifts, and its
                           second vCPU is at times worth a quarter of a core)
@@ -115,6 +117,12 @@ def cpu_model():
     return platform.processor() or platform.machine()
 
 
+def us_per_cut(stats):
+    """(t.Repl + t.EC) / #CuT of a run without physics [us]."""
+    return ((stats['cut']['time_ms'] + stats['collapse']['time_ms']) * 1000.0 /
+            max(1, stats['cut']['cut_tetrahedra']))
+
+
 def median(values):
     return statistics.median(values) if values else float('nan')
 
@@ -143,23 +151,31 @@ def main():
         with open(threaded[t], 'w') as f:
             f.write(CONFIG + '  threads: %d\n' % t)
     rows, physics_rows = [], []
-    check_before = machine_check(a.build)
+    prefixes = {}
     for n in a.sizes:
-        prefix = os.path.join(out, 'organ%d' % n)
-        if not os.path.exists(prefix + '.ele'):
-            run([sys.executable, os.path.join(ROOT, 'meshes', 'src', 'make_organ.py'), prefix,
+        prefixes[n] = os.path.join(out, 'organ%d' % n)
+        if not os.path.exists(prefixes[n] + '.ele'):
+            run([sys.executable, os.path.join(ROOT, 'meshes', 'src', 'make_organ.py'), prefixes[n],
                  '--tets', str(n)])
-        full = {t: [] for t in a.threads}
-        plain = []
-        for k in range(a.repeats):
+    check_before = machine_check(a.build)
+    # Each repeat replays every size in turn, so that the sizes share the machine's drifts in
+    # speed and the 4x ratio compares runs taken alternately (run size by size, the 80k replays
+    # came minutes after the 20k ones: once 1.60 where the runs before and after gave 1.30).
+    full = {n: {t: [] for t in a.threads} for n in a.sizes}
+    plain = {n: [] for n in a.sizes}
+    for k in range(a.repeats):
+        for n in a.sizes:
+            mesh = prefixes[n] + '.node'
             for t in a.threads:
-                full[t].append(replay(a.build, prefix + '.node', path, threaded[t],
-                                      os.path.join(out, 'full%d_t%d_%d.json' % (n, t, k)), True))
-            plain.append(replay(a.build, prefix + '.node', path, config,
-                                os.path.join(out, 'plain%d_%d.json' % (n, k)), False,
-                                os.path.join(out, 'plain%d_%d_ticks.csv' % (n, k))))
+                full[n][t].append(replay(a.build, mesh, path, threaded[t],
+                                         os.path.join(out, 'full%d_t%d_%d.json' % (n, t, k)),
+                                         True))
+            plain[n].append(replay(a.build, mesh, path, config,
+                                   os.path.join(out, 'plain%d_%d.json' % (n, k)), False,
+                                   os.path.join(out, 'plain%d_%d_ticks.csv' % (n, k))))
+    for n in a.sizes:
         for t in a.threads:
-            runs = full[t]
+            runs = full[n][t]
             physics_rows.append({
                 'tets': runs[0]['initial']['tetrahedra'],
                 'springs': runs[0]['physics']['springs'],
@@ -177,23 +193,22 @@ def main():
                 'physics_ms': median([s['physics']['time_ms'] / max(1, s['physics']['steps'])
                                       for s in runs]),
             })
-        cut_cost = [(s['cut']['time_ms'] + s['collapse']['time_ms']) * 1000.0 /
-                    max(1, s['cut']['cut_tetrahedra']) for s in plain]
+        cut_cost = [us_per_cut(s) for s in plain[n]]
         rows.append({
-            'tets': plain[0]['initial']['tetrahedra'],
-            'cut_plain': median([s['cut']['cut_tetrahedra'] for s in plain]),
-            'repl_ms': median([s['cut']['time_ms'] for s in plain]),
-            'ec_ms': median([s['collapse']['time_ms'] for s in plain]),
-            'p99_plain': median([s['ticks']['p99_ms'] for s in plain]),
+            'tets': plain[n][0]['initial']['tetrahedra'],
+            'cut_plain': median([s['cut']['cut_tetrahedra'] for s in plain[n]]),
+            'repl_ms': median([s['cut']['time_ms'] for s in plain[n]]),
+            'ec_ms': median([s['collapse']['time_ms'] for s in plain[n]]),
+            'p99_plain': median([s['ticks']['p99_ms'] for s in plain[n]]),
             'us_per_cut': median(cut_cost),
             'cpu_per_cut': median([s['ticks']['cpu_total_ms'] * 1000.0 /
-                                   max(1, s['cut']['cut_tetrahedra']) for s in plain]),
+                                   max(1, s['cut']['cut_tetrahedra']) for s in plain[n]]),
             'idle_per_cut': median([s['cut_split_ms'][0] * 1000.0 /
-                                    max(1, s['cut']['cut_tetrahedra']) for s in plain]),
+                                    max(1, s['cut']['cut_tetrahedra']) for s in plain[n]]),
             'busy_per_cut': median([s['cut_split_ms'][1] * 1000.0 /
-                                    max(1, s['cut']['cut_tetrahedra']) for s in plain]),
+                                    max(1, s['cut']['cut_tetrahedra']) for s in plain[n]]),
             'ec_per_cut': median([s['collapse']['time_ms'] * 1000.0 /
-                                  max(1, s['cut']['cut_tetrahedra']) for s in plain]),
+                                  max(1, s['cut']['cut_tetrahedra']) for s in plain[n]]),
         })
     check_after = machine_check(a.build)
     print('machine: %s, %d cores, %s; %d runs each, medians' %
@@ -223,9 +238,14 @@ def main():
                r['p99_plain']))
     by_size = dict(zip(a.sizes, rows))
     if 20000 in by_size and 80000 in by_size:
-        print('4x ratio (us per cut tet, 80k over 20k): %.2f (t.Repl + t.EC), %.2f (CPU)' %
+        # Also each repeat's 80k run over its 20k run, taken one after the other.
+        paired = sorted(us_per_cut(big) / us_per_cut(small)
+                        for big, small in zip(plain[80000], plain[20000]))
+        print('4x ratio (us per cut tet, 80k over 20k): %.2f (t.Repl + t.EC), %.2f (CPU); '
+              'each repeat\'s own: median %.2f, %.2f-%.2f' %
               (by_size[80000]['us_per_cut'] / by_size[20000]['us_per_cut'],
-               by_size[80000]['cpu_per_cut'] / by_size[20000]['cpu_per_cut']))
+               by_size[80000]['cpu_per_cut'] / by_size[20000]['cpu_per_cut'], median(paired),
+               paired[0], paired[-1]))
 
 
 if __name__ == '__main__':
