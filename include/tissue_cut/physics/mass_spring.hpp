@@ -153,7 +153,7 @@ class MassSpring {
   /// The springs' part of the implicit step's set-up (see stepImplicit()).
   void assembleSprings(int part, double dt);
   /// A batch of springs, one array per coordinate: what assembleSprings() gathers from the mesh
-  /// for springTerms(), and what that makes of it.
+  /// for springTerms(), and what that makes of it (its blocks go to a BlockBatch).
   struct SpringBatch {
     static constexpr int kSize = 32;
     alignas(64) double dx[kSize], dy[kSize], dz[kSize];  // x_b - x_a

@@ -578,11 +578,12 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
 __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::springTerms(
     SpringBatch* __restrict s, BlockBatch* __restrict k, double h2, double inv_dt) {
   // Per spring of the batch, from its end-to-end vector d = x_b - x_a, velocity difference
-  // u_b - u_a and warm-start difference w_a - w_b: its stiffness block K, f + K (u_b - u_a) / h
-  // (into f*) and K (w_a - w_b) (over w*). The force on a is f = k (|d| - L) d / |d|, and to
-  // first order +K (x_b - x_a) with K = k (n n^T + max(0, 1 - L/|d|) (I - n n^T)): the
-  // transverse part clamped at 0 keeps the block positive semi-definite (Choi and Ko 2002), so
-  // that A stays symmetric positive definite. A spring of length 0 has f = 0 and K = k I.
+  // u_b - u_a and warm-start difference w_a - w_b: its stiffness block K (into *k, the batch's
+  // place in blocks_), f + K (u_b - u_a) / h (into f*) and K (w_a - w_b) (over w*). The force on a
+  // is f = k (|d| - L) d / |d|, and to first order +K (x_b - x_a) with K = k (n n^T + max(0, 1 -
+  // L/|d|) (I - n n^T)): the transverse part clamped at 0 keeps the block positive semi-definite
+  // (Choi and Ko 2002), so that A stays symmetric positive definite. A spring of length 0 has f = 0
+  // and K = k I.
   for (int j = 0; j < SpringBatch::kSize; ++j) {
     const double dx = s->dx[j], dy = s->dy[j], dz = s->dz[j];
     const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
