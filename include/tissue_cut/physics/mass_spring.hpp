@@ -110,6 +110,9 @@ class MassSpring {
   bool fixed(int v) const { return fixed_[v] != 0; }
   /// Fixes (or frees) vertices by id, on top of the band.
   void setFixed(const std::vector<int>& vertices, bool fixed = true);
+  /// Makes the next step pack the springs anew, as a change to them would (the tests compare
+  /// steps that keep the packing with steps that make it every time).
+  void repackSprings() { packing_valid_ = false; }
   void setParams(const MassSpringParams& params);
   const MassSpringParams& params() const { return params_; }
 
@@ -159,8 +162,12 @@ class MassSpring {
     alignas(64) double dx[kSize], dy[kSize], dz[kSize];  // x_b - x_a
     alignas(64) double ux[kSize], uy[kSize], uz[kSize];  // u_b - u_a
     alignas(64) double wx[kSize], wy[kSize], wz[kSize];  // w_a - w_b, then K (w_a - w_b)
-    alignas(64) double stiffness[kSize], rest[kSize];
     alignas(64) double fx[kSize], fy[kSize], fz[kSize];  // f + K (u_b - u_a) / h
+  };
+  /// A packed batch's springs' constants (zero in the lanes past its last spring), kept with the
+  /// packing (see packing_valid_).
+  struct SpringConsts {
+    alignas(64) double stiffness[SpringBatch::kSize], rest[SpringBatch::kSize];
   };
   /// A batch's stiffness blocks, one array per entry: springTerms() writes them where the CG
   /// products read them (blocks_), so the set-up's scatter does not copy them.
@@ -169,7 +176,8 @@ class MassSpring {
     alignas(64) double yy[SpringBatch::kSize], yz[SpringBatch::kSize], zz[SpringBatch::kSize];
     Block at(int j) const { return {xx[j], xy[j], xz[j], yy[j], yz[j], zz[j]}; }
   };
-  static void springTerms(SpringBatch* s, BlockBatch* k, double h2, double inv_dt);
+  static void springTerms(SpringBatch* s, const SpringConsts* c, BlockBatch* k, double h2,
+                          double inv_dt);
   /// A packed spring's block (see blocks_).
   Block blockAt(int slot) const {
     const unsigned at = static_cast<unsigned>(slot);
@@ -325,6 +333,12 @@ class MassSpring {
   std::vector<std::array<int, 2>> ends_;
   std::vector<int> packed_end_;  // per part
   std::vector<int> packed_at_;   // per spring: its index in ends_ and blocks_, -1 when left out
+  std::vector<SpringConsts> consts_;  // per batch of blocks_: its springs' stiffness and length
+  // Whether ends_, packed_at_, packed_end_ and consts_ still hold the packing of springs_ that
+  // the last step made: false once a spring, a fixed vertex, a vertex's life (follow()) or the
+  // number of parts changed. While true, the set-up reads the packed ends instead of packing
+  // springs_ again.
+  bool packing_valid_ = false;
   std::vector<Vec3> b_, dv_, x0_;
   std::vector<Padded3> r_, z_, p_, ap_;  // CG's residual, its preconditioned, direction, A p
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead

@@ -136,6 +136,7 @@ std::vector<int> MassSpring::liveVertices() const {
 void MassSpring::makeTeam() {
   const int threads = WorkerTeam::usable(params_.threads);
   if (threads == numThreads()) return;
+  packing_valid_ = false;  // the parts' ranges change
   team_.reset();
   if (threads > 1) team_ = std::make_unique<WorkerTeam>(threads);
 }
@@ -158,6 +159,7 @@ void MassSpring::resize() {
 
 void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
   strong_dt_ = 0.0;  // found again at the next step
+  packing_valid_ = false;
   for (int v : vertices)
     if (v >= 0 && v < static_cast<int>(fixed_.size())) fixed_[v] = fixed ? 1 : 0;
 }
@@ -171,6 +173,7 @@ int MassSpring::findSpring(int a, int b) const {
 }
 
 void MassSpring::setSpring(int a, int b, double volume) {
+  packing_valid_ = false;
   const int found = findSpring(a, b);
   if (volume <= 0.0) {
     if (found < 0) return;
@@ -252,6 +255,9 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
 }
 
 void MassSpring::follow(const ChangeRecord& change) {
+  // Vertices came or went. (Their springs change through setSpring(), which says so too; a
+  // vertex's life also decides whether it is held.)
+  packing_valid_ = false;
   resize();
   growSlots(&tet_copy_, mesh_->tetSlots(), {-1, -1, -1, -1});
   // The vertices and edges of the tets that went or came, each once, in increasing order. A
@@ -512,39 +518,53 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   // each, the arithmetic over those arrays (no loads from the mesh, no stores into it: it runs
   // on the vector unit, square roots and divisions included), then the sums scattered.
   SpringBatch s;
+  const bool pack = !packing_valid_;
   int* packed_at = packed_at_.data();
+  std::array<int, 2>* ends = ends_.data();
   int batch = packedBegin(part);  // the batch's first slot in ends_ and blocks_
-  packed_end_[part] = batch;
-  for (int next = begin; next < end; batch += SpringBatch::kSize) {
+  // The packing made by an earlier step holds while no spring, fixed vertex or vertex's life
+  // changed (packing_valid_): the gather then reads only the packed ends, not springs_ and the
+  // held flags, and stores no ends, places or constants.
+  const int packed_end = pack ? end : packed_end_[part];
+  if (pack) packed_end_[part] = batch;
+  for (int next = begin; pack ? next < end : batch < packed_end; batch += SpringBatch::kSize) {
+    SpringConsts& c = consts_[batch / SpringBatch::kSize];
     int count = 0;
-    for (; next < end && count < SpringBatch::kSize; ++next) {
-      const Spring& sp = springs_[next];
-      if (held[sp.a] && held[sp.b]) {
-        packed_at[next] = -1;
-        continue;
+    if (pack) {
+      for (; next < end && count < SpringBatch::kSize; ++next) {
+        const Spring& sp = springs_[next];
+        if (held[sp.a] && held[sp.b]) {
+          packed_at[next] = -1;
+          continue;
+        }
+        const int j = count++;
+        packed_at[next] = batch + j;
+        ends[batch + j] = {sp.a, sp.b};
+        c.stiffness[j] = sp.stiffness;
+        c.rest[j] = sp.rest_length;
       }
-      const int j = count++;
-      packed_at[next] = batch + j;
-      ends_[batch + j] = {sp.a, sp.b};
-      const Vec3 d = x[sp.b] - x[sp.a];
-      const Vec3 dvel = u[sp.b] - u[sp.a];
-      const Vec3 dw = w[sp.a] - w[sp.b];
+      for (int j = count; j < SpringBatch::kSize; ++j) c.stiffness[j] = c.rest[j] = 0.0;
+    } else {
+      count = std::min(SpringBatch::kSize, packed_end - batch);
+    }
+    for (int j = 0; j < count; ++j) {
+      const int a = ends[batch + j][0], b = ends[batch + j][1];
+      const Vec3 d = x[b] - x[a];
+      const Vec3 dvel = u[b] - u[a];
+      const Vec3 dw = w[a] - w[b];
       s.dx[j] = d.x(), s.dy[j] = d.y(), s.dz[j] = d.z();
       s.ux[j] = dvel.x(), s.uy[j] = dvel.y(), s.uz[j] = dvel.z();
       s.wx[j] = dw.x(), s.wy[j] = dw.y(), s.wz[j] = dw.z();
-      s.stiffness[j] = sp.stiffness;
-      s.rest[j] = sp.rest_length;
     }
     for (int j = count; j < SpringBatch::kSize; ++j) {  // a full batch: a fixed count vectorizes
       s.dx[j] = s.dy[j] = s.dz[j] = 0.0;
       s.ux[j] = s.uy[j] = s.uz[j] = s.wx[j] = s.wy[j] = s.wz[j] = 0.0;
-      s.stiffness[j] = s.rest[j] = 0.0;
     }
     BlockBatch& kb = blocks_[batch / SpringBatch::kSize];  // batch is a batch's first slot
-    springTerms(&s, &kb, h2, inv_dt);
+    springTerms(&s, &c, &kb, h2, inv_dt);
     for (int j = 0; j < count; ++j) {
       const int i = batch + j;
-      const int a = ends_[i][0], b = ends_[i][1];
+      const int a = ends[i][0], b = ends[i][1];
       if (a != run) {
         flush();
         run = a;
@@ -566,7 +586,7 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
       *reinterpret_cast<V4*>(&diag[b]) += k;
       *reinterpret_cast<V2*>(&diag[b].k.yz) += k45;
     }
-    packed_end_[part] = batch + count;
+    if (pack) packed_end_[part] = batch + count;
   }
   flush();
 }
@@ -576,7 +596,8 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
 // multiplications had kept both vector multipliers busy), AVX2 (four) or SSE2 (two). None uses
 // fused multiply-adds (-ffp-contract=off for this file: AVX-512 has them): the same bits each way.
 __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::springTerms(
-    SpringBatch* __restrict s, BlockBatch* __restrict k, double h2, double inv_dt) {
+    SpringBatch* __restrict s, const SpringConsts* __restrict c, BlockBatch* __restrict k,
+    double h2, double inv_dt) {
   // Per spring of the batch, from its end-to-end vector d = x_b - x_a, velocity difference
   // u_b - u_a and warm-start difference w_a - w_b: its stiffness block K (into *k, the batch's
   // place in blocks_), f + K (u_b - u_a) / h (into f*) and K (w_a - w_b) (over w*). The force on a
@@ -590,10 +611,10 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::sp
     // Arithmetic, not branches, so that the loop vectorizes: 1 / |d|, or 0 where |d| = 0.
     const double some = len > 0 ? 1.0 : 0.0;
     const double inv = some / (len + (1.0 - some));
-    const double stiffness = s->stiffness[j];
-    const double f = stiffness * (len - s->rest[j]) * inv;
+    const double stiffness = c->stiffness[j];
+    const double f = stiffness * (len - c->rest[j]) * inv;
     const double nx = dx * inv, ny = dy * inv, nz = dz * inv;
-    const double transverse = std::max(0.0, 1.0 - s->rest[j] * inv);
+    const double transverse = std::max(0.0, 1.0 - c->rest[j] * inv);
     const double kt = h2 * stiffness * transverse, kn = h2 * stiffness - kt;
     const double xx = kt + kn * nx * nx, xy = kn * nx * ny, xz = kn * nx * nz;
     const double yy = kt + kn * ny * ny, yz = kn * ny * nz, zz = kt + kn * nz * nz;
@@ -1023,6 +1044,7 @@ void MassSpring::sizeStepBuffers() {
   const int slots = packedBegin(parts - 1) + static_cast<int>(springs_.size()) -
                     rangeOf(static_cast<int>(springs_.size()), parts - 1).first;
   resizeSlots(&blocks_, slots / SpringBatch::kSize + 1);
+  resizeSlots(&consts_, slots / SpringBatch::kSize + 1);
   resizeSlots(&ends_, slots);
   resizeSlots(&packed_at_, springs_.size());
   packed_end_.resize(parts);
@@ -1319,6 +1341,7 @@ bool MassSpring::stepImplicit(double dt) {
   // forces, their stiffness blocks (kept scaled by h^2 for the CG products), the diagonal blocks
   // of A for the preconditioner and the springs' part of A dv.
   parallel([&](int part) { assembleSprings(part, dt); });
+  packing_valid_ = true;
   // The vertices' own terms and the parts' sums together, and CG's start: r = b - A dv, z = P r,
   // p = z.
   parallel([&](int part) { setupVertices(part, dt); });
