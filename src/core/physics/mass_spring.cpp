@@ -256,8 +256,8 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
 
 void MassSpring::follow(const ChangeRecord& change) {
   // Vertices came or went. (Their springs change through setSpring(), which says so too; a
-  // vertex's life also decides whether it is held.)
-  packing_valid_ = false;
+  // vertex's life also decides whether it is held.) Most ticks follow an empty record.
+  if (!change.empty()) packing_valid_ = false;
   resize();
   growSlots(&tet_copy_, mesh_->tetSlots(), {-1, -1, -1, -1});
   // The vertices and edges of the tets that went or came, each once, in increasing order. A
@@ -529,6 +529,14 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   if (pack) packed_end_[part] = batch;
   for (int next = begin; pack ? next < end : batch < packed_end; batch += SpringBatch::kSize) {
     SpringConsts& c = consts_[batch / SpringBatch::kSize];
+    auto gather = [&](int j, int a, int b) {
+      const Vec3 d = x[b] - x[a];
+      const Vec3 dvel = u[b] - u[a];
+      const Vec3 dw = w[a] - w[b];
+      s.dx[j] = d.x(), s.dy[j] = d.y(), s.dz[j] = d.z();
+      s.ux[j] = dvel.x(), s.uy[j] = dvel.y(), s.uz[j] = dvel.z();
+      s.wx[j] = dw.x(), s.wy[j] = dw.y(), s.wz[j] = dw.z();
+    };
     int count = 0;
     if (pack) {
       for (; next < end && count < SpringBatch::kSize; ++next) {
@@ -542,19 +550,12 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
         ends[batch + j] = {sp.a, sp.b};
         c.stiffness[j] = sp.stiffness;
         c.rest[j] = sp.rest_length;
+        gather(j, sp.a, sp.b);
       }
       for (int j = count; j < SpringBatch::kSize; ++j) c.stiffness[j] = c.rest[j] = 0.0;
     } else {
       count = std::min(SpringBatch::kSize, packed_end - batch);
-    }
-    for (int j = 0; j < count; ++j) {
-      const int a = ends[batch + j][0], b = ends[batch + j][1];
-      const Vec3 d = x[b] - x[a];
-      const Vec3 dvel = u[b] - u[a];
-      const Vec3 dw = w[a] - w[b];
-      s.dx[j] = d.x(), s.dy[j] = d.y(), s.dz[j] = d.z();
-      s.ux[j] = dvel.x(), s.uy[j] = dvel.y(), s.uz[j] = dvel.z();
-      s.wx[j] = dw.x(), s.wy[j] = dw.y(), s.wz[j] = dw.z();
+      for (int j = 0; j < count; ++j) gather(j, ends[batch + j][0], ends[batch + j][1]);
     }
     for (int j = count; j < SpringBatch::kSize; ++j) {  // a full batch: a fixed count vectorizes
       s.dx[j] = s.dy[j] = s.dz[j] = 0.0;
