@@ -110,9 +110,10 @@ class MassSpring {
   bool fixed(int v) const { return fixed_[v] != 0; }
   /// Fixes (or frees) vertices by id, on top of the band.
   void setFixed(const std::vector<int>& vertices, bool fixed = true);
-  /// Makes the next step pack the springs anew, as a change to them would (the tests compare
-  /// steps that keep the packing with steps that make it every time).
-  void repackSprings() { packing_valid_ = false; }
+  /// Makes the next step pack the springs and take the inertia anew, as a change to the springs
+  /// and masses would (the tests compare steps that keep them with steps that make them every
+  /// time).
+  void forgetKept() { packing_valid_ = inertia_valid_ = false; }
   void setParams(const MassSpringParams& params);
   const MassSpringParams& params() const { return params_; }
 
@@ -280,6 +281,9 @@ class MassSpring {
   void stepSemiImplicit(double dt);
   /// The fastest speed and finiteness of each part's live vertices, into partial_ (see above).
   void scanSpeeds();
+  /// inertia_ (the masses with the floor of step()) and added_inertia_ from the masses and the
+  /// live vertices.
+  void updateInertia();
 
   TetMesh* mesh_;
   MassSpringParams params_;
@@ -339,6 +343,9 @@ class MassSpring {
   // number of parts changed. While true, the set-up reads the packed ends instead of packing
   // springs_ again.
   bool packing_valid_ = false;
+  // Whether inertia_ and added_inertia_ still hold what the masses and the live vertices give
+  // (see updateInertia()): false once a mass, a vertex's life or the number of parts changed.
+  bool inertia_valid_ = false;
   std::vector<Vec3> b_, dv_, x0_;
   std::vector<Padded3> r_, z_, p_, ap_;  // CG's residual, its preconditioned, direction, A p
   std::vector<Block> inv_diag_;  // block-Jacobi preconditioner (unscaled), zero for fixed/dead

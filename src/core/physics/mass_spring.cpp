@@ -137,6 +137,7 @@ void MassSpring::makeTeam() {
   const int threads = WorkerTeam::usable(params_.threads);
   if (threads == numThreads()) return;
   packing_valid_ = false;  // the parts' ranges change
+  inertia_valid_ = false;  // and the parts' sums of the mass
   team_.reset();
   if (threads > 1) team_ = std::make_unique<WorkerTeam>(threads);
 }
@@ -225,6 +226,7 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
   // its records' work).
   // v's edges are found through their far ends, each noted with its place by a stamp (a scan of
   // v's edges for every vertex of every tet had cost as much again).
+  if (!vertices.empty()) inertia_valid_ = false;  // their masses change
   std::vector<double>& volume = edge_volumes_;
   volume.assign(edges.size(), 0.0);
   const std::size_t slots = mesh_->vertexSlots();
@@ -257,7 +259,7 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
 void MassSpring::follow(const ChangeRecord& change) {
   // Vertices came or went. (Their springs change through setSpring(), which says so too; a
   // vertex's life also decides whether it is held.) Most ticks follow an empty record.
-  if (!change.empty()) packing_valid_ = false;
+  if (!change.empty()) packing_valid_ = inertia_valid_ = false;
   resize();
   growSlots(&tet_copy_, mesh_->tetSlots(), {-1, -1, -1, -1});
   // The vertices and edges of the tets that went or came, each once, in increasing order. A
@@ -1428,16 +1430,52 @@ std::string MassSpring::step(double dt) {
   resize();
   sizeStepBuffers();  // capacity kept: no allocation once grown
   const int n = mesh_->vertexSlots();
-  // The positions to roll back to; the mass and the live vertices, for the inertia floor.
+  // The positions to roll back to.
   parallel([&](int part) {
     const auto [begin, end] = rangeOf(n, part);
     const Vec3* x = mesh_->currentPositions().data();
+    std::copy(x + begin, x + end, x0_.data() + begin);
+  });
+  // The inertia depends on the masses and the live vertices only: made again only when they, or
+  // the parts that sum the mass, changed (inertia_valid_).
+  if (!inertia_valid_) updateInertia();
+  if (params_.implicit) {
+    stepImplicit(dt);  // its last pass scans the speeds too
+  } else {
+    stepSemiImplicit(dt);
+    scanSpeeds();
+  }
+  double worst = 0.0;
+  bool finite = true;
+  for (const Partial& p : partial_) {
+    worst = std::max(worst, p.sum[2]);
+    finite = finite && p.sum[3] > 0.0;
+  }
+  if (finite && worst <= params_.max_speed) {
+    last_max_displacement_ = dt * worst;
+    return "";
+  }
+  last_max_displacement_ = HUGE_VAL;
+  // Roll back and damp: the tissue keeps its last good shape, at rest.
+  mesh_->currentPositions() = x0_;
+  for (Vec3& u : mesh_->velocities()) u.setZero();
+  warm_history_ = 0;  // the next steps read none of the answers before (see stepImplicit())
+  ++instabilities_;
+  std::ostringstream msg;
+  msg << "physics step unstable (" << (finite ? "speed " : "non-finite state, speed ") << worst
+      << " m/s): rolled back and damped";
+  return msg.str();
+}
+
+void MassSpring::updateInertia() {
+  const int n = mesh_->vertexSlots();
+  // The mass and the live vertices, for the inertia floor.
+  parallel([&](int part) {
+    const auto [begin, end] = rangeOf(n, part);
     const unsigned char* alive_at = mesh_->vertexAliveFlags().data();
     const double* vertex_mass = mass_.data();
-    Vec3* x0 = x0_.data();
     double mass = 0.0, alive = 0.0;
     for (int v = begin; v < end; ++v) {
-      x0[v] = x[v];
       if (!alive_at[v]) continue;
       mass += vertex_mass[v];
       alive += 1.0;
@@ -1467,32 +1505,7 @@ std::string MassSpring::step(double dt) {
     partial_[part].sum[0] = added;
   });
   added_inertia_ = total > 0 ? partialSum(0) / total : 0.0;
-  if (params_.implicit) {
-    stepImplicit(dt);  // its last pass scans the speeds too
-  } else {
-    stepSemiImplicit(dt);
-    scanSpeeds();
-  }
-  double worst = 0.0;
-  bool finite = true;
-  for (const Partial& p : partial_) {
-    worst = std::max(worst, p.sum[2]);
-    finite = finite && p.sum[3] > 0.0;
-  }
-  if (finite && worst <= params_.max_speed) {
-    last_max_displacement_ = dt * worst;
-    return "";
-  }
-  last_max_displacement_ = HUGE_VAL;
-  // Roll back and damp: the tissue keeps its last good shape, at rest.
-  mesh_->currentPositions() = x0_;
-  for (Vec3& u : mesh_->velocities()) u.setZero();
-  warm_history_ = 0;  // the next steps read none of the answers before (see stepImplicit())
-  ++instabilities_;
-  std::ostringstream msg;
-  msg << "physics step unstable (" << (finite ? "speed " : "non-finite state, speed ") << worst
-      << " m/s): rolled back and damped";
-  return msg.str();
+  inertia_valid_ = true;
 }
 
 void MassSpring::scanSpeeds() {
