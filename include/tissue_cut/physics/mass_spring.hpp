@@ -111,9 +111,9 @@ class MassSpring {
   /// Fixes (or frees) vertices by id, on top of the band.
   void setFixed(const std::vector<int>& vertices, bool fixed = true);
   /// Makes the next step pack the springs and take the inertia anew, as a change to the springs
-  /// and masses would (the tests compare steps that keep them with steps that make them every
-  /// time).
-  void forgetKept() { packing_valid_ = inertia_valid_ = false; }
+  /// and masses would, from a packing whose every entry is wrong (the tests compare steps that
+  /// keep them with steps that make them every time from nothing).
+  void forgetKept();
   void setParams(const MassSpringParams& params);
   const MassSpringParams& params() const { return params_; }
 
@@ -177,6 +177,7 @@ class MassSpring {
     alignas(64) double yy[SpringBatch::kSize], yz[SpringBatch::kSize], zz[SpringBatch::kSize];
     Block at(int j) const { return {xx[j], xy[j], xz[j], yy[j], yz[j], zz[j]}; }
   };
+  int packBatch(int* next, int end, int batch, SpringBatch* s);
   static void springTerms(SpringBatch* s, const SpringConsts* c, BlockBatch* k, double h2,
                           double inv_dt);
   /// A packed spring's block (see blocks_).

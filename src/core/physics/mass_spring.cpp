@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
 #include <sstream>
 
 #include "tissue_cut/physics/lane_inverse.hpp"
@@ -163,6 +166,18 @@ void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
   packing_valid_ = false;
   for (int v : vertices)
     if (v >= 0 && v < static_cast<int>(fixed_.size())) fixed_[v] = fixed ? 1 : 0;
+}
+
+void MassSpring::forgetKept() {
+  packing_valid_ = inertia_valid_ = false;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::fill(ends_.begin(), ends_.end(), std::array<int, 2>{-1, -1});
+  std::fill(packed_at_.begin(), packed_at_.end(), -2);
+  for (SpringConsts& c : consts_) {
+    std::fill(std::begin(c.stiffness), std::end(c.stiffness), nan);
+    std::fill(std::begin(c.rest), std::end(c.rest), nan);
+  }
+  std::fill(inertia_.begin(), inertia_.end(), nan);
 }
 
 int MassSpring::findSpring(int a, int b) const {
@@ -481,6 +496,55 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::springProduct
   if (run >= 0) out4[run] += sum;
 }
 
+// One batch of a packing (see assembleSprings()): the springs of springs_ from *next on with a
+// free end, up to a batch's worth, packed from slot `batch` on (their ends, places and
+// constants), and their ends' differences gathered into *s. Returns how many it packed, and
+// leaves *next after the last spring it looked at. Most of a packing is what the last one was (a
+// change moves a few springs): each entry is stored only where it differs, so that the pass
+// mostly loads. Kept out of assembleSprings()' loop, whose code for the kept packing this code
+// beside it made 5% slower.
+__attribute__((noinline)) int MassSpring::packBatch(int* next, int end, int batch, SpringBatch* s) {
+  auto keep = [](double* at, double value) {  // *at = value, stored only if its bits differ
+    std::uint64_t a, v;
+    std::memcpy(&a, at, sizeof a);
+    std::memcpy(&v, &value, sizeof v);
+    if (a != v) *at = value;
+  };
+  const unsigned char* held = held_.data();
+  const Vec3* x = mesh_->currentPositions().data();
+  const Vec3* u = mesh_->velocities().data();
+  const Vec3* w = dv_.data();
+  int* packed_at = packed_at_.data();
+  std::array<int, 2>* ends = ends_.data();
+  SpringConsts& c = consts_[batch / SpringBatch::kSize];
+  int count = 0;
+  int i = *next;
+  for (; i < end && count < SpringBatch::kSize; ++i) {
+    const Spring& sp = springs_[i];
+    if (held[sp.a] && held[sp.b]) {
+      if (packed_at[i] != -1) packed_at[i] = -1;
+      continue;
+    }
+    const int j = count++;
+    if (packed_at[i] != batch + j) packed_at[i] = batch + j;
+    if (ends[batch + j][0] != sp.a || ends[batch + j][1] != sp.b) ends[batch + j] = {sp.a, sp.b};
+    keep(&c.stiffness[j], sp.stiffness);
+    keep(&c.rest[j], sp.rest_length);
+    const Vec3 d = x[sp.b] - x[sp.a];
+    const Vec3 dvel = u[sp.b] - u[sp.a];
+    const Vec3 dw = w[sp.a] - w[sp.b];
+    s->dx[j] = d.x(), s->dy[j] = d.y(), s->dz[j] = d.z();
+    s->ux[j] = dvel.x(), s->uy[j] = dvel.y(), s->uz[j] = dvel.z();
+    s->wx[j] = dw.x(), s->wy[j] = dw.y(), s->wz[j] = dw.z();
+  }
+  for (int j = count; j < SpringBatch::kSize; ++j) {
+    keep(&c.stiffness[j], 0.0);
+    keep(&c.rest[j], 0.0);
+  }
+  *next = i;
+  return count;
+}
+
 // Compiled as springTerms() is (each copy calls springTerms()' copy of its own kind): the
 // scatter adds each spring's terms to a vertex's padded rows as whole vectors, each lane doing
 // the scalar code's operations in its order.
@@ -497,7 +561,6 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   // springs in two runs with only such springs between, the two runs are now one: the same terms,
   // added in another grouping. Keeping the old grouping with a flag a spring cost 6% of a step.)
   const double h2 = dt * dt, inv_dt = 1.0 / dt;
-  const unsigned char* held = held_.data();
   const Vec3* x = mesh_->currentPositions().data();
   const Vec3* u = mesh_->velocities().data();
   const Vec3* w = dv_.data();
@@ -521,8 +584,7 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   // on the vector unit, square roots and divisions included), then the sums scattered.
   SpringBatch s;
   const bool pack = !packing_valid_;
-  int* packed_at = packed_at_.data();
-  std::array<int, 2>* ends = ends_.data();
+  const std::array<int, 2>* ends = ends_.data();
   int batch = packedBegin(part);  // the batch's first slot in ends_ and blocks_
   // The packing made by an earlier step holds while no spring, fixed vertex or vertex's life
   // changed (packing_valid_): the gather then reads only the packed ends, not springs_ and the
@@ -530,34 +592,21 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   const int packed_end = pack ? end : packed_end_[part];
   if (pack) packed_end_[part] = batch;
   for (int next = begin; pack ? next < end : batch < packed_end; batch += SpringBatch::kSize) {
-    SpringConsts& c = consts_[batch / SpringBatch::kSize];
-    auto gather = [&](int j, int a, int b) {
-      const Vec3 d = x[b] - x[a];
-      const Vec3 dvel = u[b] - u[a];
-      const Vec3 dw = w[a] - w[b];
-      s.dx[j] = d.x(), s.dy[j] = d.y(), s.dz[j] = d.z();
-      s.ux[j] = dvel.x(), s.uy[j] = dvel.y(), s.uz[j] = dvel.z();
-      s.wx[j] = dw.x(), s.wy[j] = dw.y(), s.wz[j] = dw.z();
-    };
-    int count = 0;
+    const SpringConsts& c = consts_[batch / SpringBatch::kSize];
+    int count;
     if (pack) {
-      for (; next < end && count < SpringBatch::kSize; ++next) {
-        const Spring& sp = springs_[next];
-        if (held[sp.a] && held[sp.b]) {
-          packed_at[next] = -1;
-          continue;
-        }
-        const int j = count++;
-        packed_at[next] = batch + j;
-        ends[batch + j] = {sp.a, sp.b};
-        c.stiffness[j] = sp.stiffness;
-        c.rest[j] = sp.rest_length;
-        gather(j, sp.a, sp.b);
-      }
-      for (int j = count; j < SpringBatch::kSize; ++j) c.stiffness[j] = c.rest[j] = 0.0;
+      count = packBatch(&next, end, batch, &s);
     } else {
       count = std::min(SpringBatch::kSize, packed_end - batch);
-      for (int j = 0; j < count; ++j) gather(j, ends[batch + j][0], ends[batch + j][1]);
+      for (int j = 0; j < count; ++j) {
+        const int a = ends[batch + j][0], b = ends[batch + j][1];
+        const Vec3 d = x[b] - x[a];
+        const Vec3 dvel = u[b] - u[a];
+        const Vec3 dw = w[a] - w[b];
+        s.dx[j] = d.x(), s.dy[j] = d.y(), s.dz[j] = d.z();
+        s.ux[j] = dvel.x(), s.uy[j] = dvel.y(), s.uz[j] = dvel.z();
+        s.wx[j] = dw.x(), s.wy[j] = dw.y(), s.wz[j] = dw.z();
+      }
     }
     for (int j = count; j < SpringBatch::kSize; ++j) {  // a full batch: a fixed count vectorizes
       s.dx[j] = s.dy[j] = s.dz[j] = 0.0;
