@@ -526,8 +526,9 @@ TEST(Physics, StepsKeepingTheirPackingAndInertiaAreThoseThatMakeThemEveryStep) {
   // the inertia until a mass, a vertex's life or the number of threads does. Through a split, a
   // collapse that undoes it, a vertex fixed beside the fixed band, a stiffer material (packed
   // while it is fixed: its springs to the band left out), the vertex freed again (those springs
-  // back in), a denser material, and a second thread and back, the steps are those of a model
-  // that makes both before every step, to the bit.
+  // back in), a denser material, springs that were left out replaced in their places by free
+  // ones, and a second thread and back, the steps are those of a model that makes both before
+  // every step, to the bit.
   const MeshData block = makeBlock();
   auto run = [&](bool make_every_step) {
     TetMesh mesh(block.V, block.T);
@@ -566,6 +567,34 @@ TEST(Physics, StepsKeepingTheirPackingAndInertiaAreThoseThatMakeThemEveryStep) {
     steps(10);
     params.density *= 1.5;
     physics.setParams(params);
+    steps(10);
+    // A held tet split (its springs to the new point held at both ends), a free tet split after
+    // it, then the first split undone: springs of the second split take the places of springs
+    // held at both ends, which the packing had left out.
+    const int t_held = mesh.tetSlots() / 3;
+    const TetVerts held_corners = mesh.tet(t_held);
+    physics.setFixed({held_corners.begin(), held_corners.end()});
+    steps(10);
+    ChangeRecord held_split;
+    const int held_added = test::splitAt(&mesh, t_held, {0.97, 0.01, 0.01, 0.01}, &held_split);
+    physics.follow(held_split);
+    EXPECT_TRUE(physics.fixed(held_added));
+    steps(10);
+    int t_free = -1;  // a live tet with no fixed corner
+    for (int u = 0; u < mesh.tetSlots() && t_free < 0; ++u)
+      if (mesh.tetAlive(u) && std::none_of(mesh.tet(u).begin(), mesh.tet(u).end(),
+                                           [&](int v) { return physics.fixed(v); }))
+        t_free = u;
+    EXPECT_GE(t_free, 0);
+    ChangeRecord free_split;
+    test::splitAt(&mesh, t_free, {0.25, 0.25, 0.25, 0.25}, &free_split);
+    physics.follow(free_split);
+    steps(10);
+    ChangeRecord held_collapse;
+    CollapseCheck check;
+    EXPECT_TRUE(collapseEdge(&mesh, held_added, held_corners[0], &held_collapse, &check))
+        << "refusal " << static_cast<int>(check.refusal);
+    physics.follow(held_collapse);
     steps(10);
     params.threads = 2;
     physics.setParams(params);

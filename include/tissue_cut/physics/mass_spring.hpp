@@ -7,6 +7,7 @@
 
 #include <array>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <utility>
@@ -166,7 +167,7 @@ class MassSpring {
     alignas(64) double fx[kSize], fy[kSize], fz[kSize];  // f + K (u_b - u_a) / h
   };
   /// A packed batch's springs' constants (zero in the lanes past its last spring), kept with the
-  /// packing (see packing_valid_).
+  /// packing (see updatePacking()).
   struct SpringConsts {
     alignas(64) double stiffness[SpringBatch::kSize], rest[SpringBatch::kSize];
   };
@@ -177,7 +178,9 @@ class MassSpring {
     alignas(64) double yy[SpringBatch::kSize], yz[SpringBatch::kSize], zz[SpringBatch::kSize];
     Block at(int j) const { return {xx[j], xy[j], xz[j], yy[j], yz[j], zz[j]}; }
   };
-  int packBatch(int* next, int end, int batch, SpringBatch* s);
+  /// Brings ends_, packed_at_, packed_end_ and consts_ up to date with springs_ and the held
+  /// vertices (see there).
+  void updatePacking();
   static void springTerms(SpringBatch* s, const SpringConsts* c, BlockBatch* k, double h2,
                           double inv_dt);
   /// A packed spring's block (see blocks_).
@@ -339,11 +342,13 @@ class MassSpring {
   std::vector<int> packed_end_;  // per part
   std::vector<int> packed_at_;   // per spring: its index in ends_ and blocks_, -1 when left out
   std::vector<SpringConsts> consts_;  // per batch of blocks_: its springs' stiffness and length
-  // Whether ends_, packed_at_, packed_end_ and consts_ still hold the packing of springs_ that
-  // the last step made: false once a spring, a fixed vertex, a vertex's life (follow()) or the
-  // number of parts changed. While true, the set-up reads the packed ends instead of packing
-  // springs_ again.
-  bool packing_valid_ = false;
+  // What changed since the packing was made (updatePacking() makes it before each implicit
+  // step's set-up): everything (a fixed vertex, the number of parts), the springs from
+  // repack_from_ on (springs_ grew or shrank there), the springs at the places in respring_
+  // (changed in place).
+  bool repack_all_ = true;
+  int repack_from_ = std::numeric_limits<int>::max();
+  std::vector<int> respring_;
   // Whether inertia_ and added_inertia_ still hold what the masses and the live vertices give
   // (see updateInertia()): false once a mass, a vertex's life or the number of parts changed.
   bool inertia_valid_ = false;

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdint>
-#include <cstring>
 #include <limits>
 #include <sstream>
 
@@ -139,7 +137,7 @@ std::vector<int> MassSpring::liveVertices() const {
 void MassSpring::makeTeam() {
   const int threads = WorkerTeam::usable(params_.threads);
   if (threads == numThreads()) return;
-  packing_valid_ = false;  // the parts' ranges change
+  repack_all_ = true;      // the parts' ranges change
   inertia_valid_ = false;  // and the parts' sums of the mass
   team_.reset();
   if (threads > 1) team_ = std::make_unique<WorkerTeam>(threads);
@@ -163,13 +161,14 @@ void MassSpring::resize() {
 
 void MassSpring::setFixed(const std::vector<int>& vertices, bool fixed) {
   strong_dt_ = 0.0;  // found again at the next step
-  packing_valid_ = false;
+  repack_all_ = true;
   for (int v : vertices)
     if (v >= 0 && v < static_cast<int>(fixed_.size())) fixed_[v] = fixed ? 1 : 0;
 }
 
 void MassSpring::forgetKept() {
-  packing_valid_ = inertia_valid_ = false;
+  repack_all_ = true;
+  inertia_valid_ = false;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   std::fill(ends_.begin(), ends_.end(), std::array<int, 2>{-1, -1});
   std::fill(packed_at_.begin(), packed_at_.end(), -2);
@@ -189,7 +188,6 @@ int MassSpring::findSpring(int a, int b) const {
 }
 
 void MassSpring::setSpring(int a, int b, double volume) {
-  packing_valid_ = false;
   const int found = findSpring(a, b);
   if (volume <= 0.0) {
     if (found < 0) return;
@@ -201,7 +199,9 @@ void MassSpring::setSpring(int a, int b, double volume) {
           (*lists)[lists == &springs_from_ ? springs_[found].a : springs_[found].b];
       at.erase(std::find_if(at.begin(), at.end(), at_index(found)));
     }
+    repack_from_ = std::min(repack_from_, last);  // the packing's end moves
     if (found != last) {
+      respring_.push_back(found);
       springs_[found] = springs_[last];
       for (auto* lists : {&springs_from_, &springs_to_}) {
         std::vector<SpringRef>& moved =
@@ -223,12 +223,14 @@ void MassSpring::setSpring(int a, int b, double volume) {
   if (scale > 0) k = std::clamp(k, kMinStiffness * scale, kMaxStiffness * scale);
   const Spring s{std::min(a, b), std::max(a, b), length, k};
   if (found < 0) {
+    repack_from_ = std::min(repack_from_, static_cast<int>(springs_.size()));
     growSlots(&springs_from_, s.a + 1);
     growSlots(&springs_to_, s.b + 1);
     springs_from_[s.a].push_back({s.b, static_cast<int>(springs_.size())});
     springs_to_[s.b].push_back({s.a, static_cast<int>(springs_.size())});
     springs_.push_back(s);
   } else {
+    respring_.push_back(found);
     springs_[found] = s;
   }
 }
@@ -272,9 +274,9 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
 }
 
 void MassSpring::follow(const ChangeRecord& change) {
-  // Vertices came or went. (Their springs change through setSpring(), which says so too; a
-  // vertex's life also decides whether it is held.) Most ticks follow an empty record.
-  if (!change.empty()) packing_valid_ = inertia_valid_ = false;
+  // Vertices came or went (their springs change through setSpring(), which notes the packing's
+  // changes). Most ticks follow an empty record.
+  if (!change.empty()) inertia_valid_ = false;
   resize();
   growSlots(&tet_copy_, mesh_->tetSlots(), {-1, -1, -1, -1});
   // The vertices and edges of the tets that went or came, each once, in increasing order. A
@@ -496,53 +498,72 @@ __attribute__((target_clones("avx2", "default"))) void MassSpring::springProduct
   if (run >= 0) out4[run] += sum;
 }
 
-// One batch of a packing (see assembleSprings()): the springs of springs_ from *next on with a
-// free end, up to a batch's worth, packed from slot `batch` on (their ends, places and
-// constants), and their ends' differences gathered into *s. Returns how many it packed, and
-// leaves *next after the last spring it looked at. Most of a packing is what the last one was (a
-// change moves a few springs): each entry is stored only where it differs, so that the pass
-// mostly loads. A function of its own: written inside assembleSprings()' loop, it made that
-// loop's other branch, the gather from a kept packing, 5% slower.
-__attribute__((noinline)) int MassSpring::packBatch(int* next, int end, int batch, SpringBatch* s) {
-  auto keep = [](double* at, double value) {  // *at = value, stored only if its bits differ
-    std::uint64_t a, v;
-    std::memcpy(&a, at, sizeof a);
-    std::memcpy(&v, &value, sizeof v);
-    if (a != v) *at = value;
-  };
+void MassSpring::updatePacking() {
+  // The packing that packing every spring anew would give (each part's springs with a free end,
+  // in order, from the part's first slot), made from the last one: a spring changed in place
+  // (respring_) whose end is as held as before keeps its slot, which takes its ends and
+  // constants; the springs from repack_from_ on (the end of springs_ moved), or from a spring
+  // that is now held at both ends or no longer, are packed again. Everything is packed again
+  // after a fixed vertex or the number of parts changed, and with more than one part after any
+  // change (the parts' ranges follow the number of springs). A cut changes a few dozen springs
+  // of 28,000 on the 20k organ: packing them all on its tick had cost more than the rest of the
+  // set-up's gather.
+  constexpr int kSize = SpringBatch::kSize;
+  const int n = static_cast<int>(springs_.size());
   const unsigned char* held = held_.data();
-  const Vec3* x = mesh_->currentPositions().data();
-  const Vec3* u = mesh_->velocities().data();
-  const Vec3* w = dv_.data();
-  int* packed_at = packed_at_.data();
-  std::array<int, 2>* ends = ends_.data();
-  SpringConsts& c = consts_[batch / SpringBatch::kSize];
-  int count = 0;
-  int i = *next;
-  for (; i < end && count < SpringBatch::kSize; ++i) {
-    const Spring& sp = springs_[i];
-    if (held[sp.a] && held[sp.b]) {
-      if (packed_at[i] != -1) packed_at[i] = -1;
-      continue;
+  auto packs = [&](const Spring& sp) { return !(held[sp.a] && held[sp.b]); };
+  auto put = [&](int slot, const Spring& sp) {
+    ends_[slot] = {sp.a, sp.b};
+    SpringConsts& c = consts_[slot / kSize];
+    c.stiffness[slot % kSize] = sp.stiffness;
+    c.rest[slot % kSize] = sp.rest_length;
+  };
+  // Part `part`'s springs from `from` on, packed from `slot` on; the lanes past its last slot in
+  // that batch zero.
+  auto packFrom = [&](int part, int from, int slot) {
+    const int end = rangeOf(n, part).second;
+    for (int i = from; i < end; ++i) {
+      if (!packs(springs_[i])) {
+        packed_at_[i] = -1;
+        continue;
+      }
+      packed_at_[i] = slot;
+      put(slot++, springs_[i]);
     }
-    const int j = count++;
-    if (packed_at[i] != batch + j) packed_at[i] = batch + j;
-    if (ends[batch + j][0] != sp.a || ends[batch + j][1] != sp.b) ends[batch + j] = {sp.a, sp.b};
-    keep(&c.stiffness[j], sp.stiffness);
-    keep(&c.rest[j], sp.rest_length);
-    const Vec3 d = x[sp.b] - x[sp.a];
-    const Vec3 dvel = u[sp.b] - u[sp.a];
-    const Vec3 dw = w[sp.a] - w[sp.b];
-    s->dx[j] = d.x(), s->dy[j] = d.y(), s->dz[j] = d.z();
-    s->ux[j] = dvel.x(), s->uy[j] = dvel.y(), s->uz[j] = dvel.z();
-    s->wx[j] = dw.x(), s->wy[j] = dw.y(), s->wz[j] = dw.z();
+    packed_end_[part] = slot;
+    for (; slot % kSize != 0; ++slot) {
+      consts_[slot / kSize].stiffness[slot % kSize] = 0.0;
+      consts_[slot / kSize].rest[slot % kSize] = 0.0;
+    }
+  };
+  if (numThreads() > 1 && (repack_from_ < std::numeric_limits<int>::max() || !respring_.empty()))
+    repack_all_ = true;
+  if (repack_all_) {
+    parallel([&](int part) { packFrom(part, rangeOf(n, part).first, packedBegin(part)); });
+  } else {
+    int from = std::min(repack_from_, n);
+    for (int i : respring_) {
+      if (i >= from) continue;  // packed again below
+      const int slot = packed_at_[i];
+      if ((slot >= 0) != packs(springs_[i])) {
+        from = i;
+      } else if (slot >= 0) {
+        put(slot, springs_[i]);
+      }
+    }
+    if (from < n || repack_from_ < std::numeric_limits<int>::max()) {
+      int slot = 0;  // after the last packed spring before `from` (one part: its slots start at 0)
+      for (int i = from - 1; i >= 0; --i)
+        if (packed_at_[i] >= 0) {
+          slot = packed_at_[i] + 1;
+          break;
+        }
+      packFrom(0, from, slot);
+    }
   }
-  for (int j = count; j < SpringBatch::kSize; ++j) {
-    keep(&c.stiffness[j], 0.0);
-    keep(&c.rest[j], 0.0);
-  }
-  *next = i;
-  return count;
+  repack_all_ = false;
+  repack_from_ = std::numeric_limits<int>::max();
+  respring_.clear();
 }
 
 // Compiled as springTerms() is (each copy calls springTerms()' copy of its own kind): the
@@ -557,9 +578,10 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   // A spring both of whose ends are held (fixed, as a tray holds the bottom of an organ) adds
   // only to rows that are zero: it is left out here and, through ends_, from every CG product.
   // The part's other springs are packed, in order, into ends_ and blocks_ from the part's first
-  // slot (packedBegin()): no free vertex's sums see another term. (Where removals left a vertex's
-  // springs in two runs with only such springs between, the two runs are now one: the same terms,
-  // added in another grouping. Keeping the old grouping with a flag a spring cost 6% of a step.)
+  // slot (packedBegin(), updatePacking()): no free vertex's sums see another term. (Where removals
+  // left a vertex's springs in two runs with only such springs between, the two runs are now one:
+  // the same terms, added in another grouping. Keeping the old grouping with a flag a spring cost
+  // 6% of a step.)
   const double h2 = dt * dt, inv_dt = 1.0 / dt;
   const Vec3* x = mesh_->currentPositions().data();
   const Vec3* u = mesh_->velocities().data();
@@ -567,7 +589,6 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   V4* acc = reinterpret_cast<V4*>(acc_[part].data());
   V4* start = reinterpret_cast<V4*>(start_acc_[part].data());
   PaddedBlock* diag = diag_acc_[part].data();  // (xx, xy, xz, yy) and (yz, zz) as vectors
-  const auto [begin, end] = rangeOf(static_cast<int>(springs_.size()), part);
   // As in springProducts(): the first end's sums stay in registers along a run of its springs.
   int run = -1;
   V4 run_b = {0, 0, 0, 0}, run_w = {0, 0, 0, 0}, run_k = {0, 0, 0, 0};
@@ -583,30 +604,20 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   // each, the arithmetic over those arrays (no loads from the mesh, no stores into it: it runs
   // on the vector unit, square roots and divisions included), then the sums scattered.
   SpringBatch s;
-  const bool pack = !packing_valid_;
   const std::array<int, 2>* ends = ends_.data();
-  int batch = packedBegin(part);  // the batch's first slot in ends_ and blocks_
-  // The packing made by an earlier step holds while no spring, fixed vertex or vertex's life
-  // changed (packing_valid_): the gather then reads only the packed ends, not springs_ and the
-  // held flags, and stores no ends, places or constants.
-  const int packed_end = pack ? end : packed_end_[part];
-  if (pack) packed_end_[part] = batch;
-  for (int next = begin; pack ? next < end : batch < packed_end; batch += SpringBatch::kSize) {
+  // The springs as updatePacking() packed them, a batch at a time.
+  const int packed_end = packed_end_[part];
+  for (int batch = packedBegin(part); batch < packed_end; batch += SpringBatch::kSize) {
     const SpringConsts& c = consts_[batch / SpringBatch::kSize];
-    int count;
-    if (pack) {
-      count = packBatch(&next, end, batch, &s);
-    } else {
-      count = std::min(SpringBatch::kSize, packed_end - batch);
-      for (int j = 0; j < count; ++j) {
-        const int a = ends[batch + j][0], b = ends[batch + j][1];
-        const Vec3 d = x[b] - x[a];
-        const Vec3 dvel = u[b] - u[a];
-        const Vec3 dw = w[a] - w[b];
-        s.dx[j] = d.x(), s.dy[j] = d.y(), s.dz[j] = d.z();
-        s.ux[j] = dvel.x(), s.uy[j] = dvel.y(), s.uz[j] = dvel.z();
-        s.wx[j] = dw.x(), s.wy[j] = dw.y(), s.wz[j] = dw.z();
-      }
+    const int count = std::min(SpringBatch::kSize, packed_end - batch);
+    for (int j = 0; j < count; ++j) {
+      const int a = ends[batch + j][0], b = ends[batch + j][1];
+      const Vec3 d = x[b] - x[a];
+      const Vec3 dvel = u[b] - u[a];
+      const Vec3 dw = w[a] - w[b];
+      s.dx[j] = d.x(), s.dy[j] = d.y(), s.dz[j] = d.z();
+      s.ux[j] = dvel.x(), s.uy[j] = dvel.y(), s.uz[j] = dvel.z();
+      s.wx[j] = dw.x(), s.wy[j] = dw.y(), s.wz[j] = dw.z();
     }
     for (int j = count; j < SpringBatch::kSize; ++j) {  // a full batch: a fixed count vectorizes
       s.dx[j] = s.dy[j] = s.dz[j] = 0.0;
@@ -638,7 +649,6 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
       *reinterpret_cast<V4*>(&diag[b]) += k;
       *reinterpret_cast<V2*>(&diag[b].k.yz) += k45;
     }
-    if (pack) packed_end_[part] = batch + count;
   }
   flush();
 }
@@ -1392,8 +1402,8 @@ bool MassSpring::stepImplicit(double dt) {
   // b = h (f0 + h K v0), with K v0 at a = K (v_b - v_a). One pass over the springs gives their
   // forces, their stiffness blocks (kept scaled by h^2 for the CG products), the diagonal blocks
   // of A for the preconditioner and the springs' part of A dv.
+  updatePacking();
   parallel([&](int part) { assembleSprings(part, dt); });
-  packing_valid_ = true;
   // The vertices' own terms and the parts' sums together, and CG's start: r = b - A dv, z = P r,
   // p = z.
   parallel([&](int part) { setupVertices(part, dt); });
