@@ -560,6 +560,8 @@ TEST(Physics, StepsKeepingTheirPackingAndInertiaAreThoseThatMakeThemEveryStep) {
     EXPECT_GE(beside, 0);
     physics.setFixed({beside});
     steps(10);
+    params.young_modulus = 3e5;  // every spring changed in place, twice before a step
+    physics.setParams(params);
     params.young_modulus = 2e5;  // packed anew while `beside` is fixed
     physics.setParams(params);
     steps(10);

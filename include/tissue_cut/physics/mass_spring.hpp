@@ -181,6 +181,8 @@ class MassSpring {
   /// Brings ends_, packed_at_, packed_end_ and consts_ up to date with springs_ and the held
   /// vertices (see there).
   void updatePacking();
+  /// Notes for updatePacking() that springs_[spring] changed in place.
+  void noteChangedInPlace(int spring);
   static void springTerms(SpringBatch* s, const SpringConsts* c, BlockBatch* k, double h2,
                           double inv_dt);
   /// A packed spring's block (see blocks_).

@@ -187,6 +187,18 @@ int MassSpring::findSpring(int a, int b) const {
   return -1;
 }
 
+void MassSpring::noteChangedInPlace(int spring) {
+  // Without implicit steps (physics off, or semi-implicit) nothing reads the notes: past one a
+  // spring, packing everything is as cheap.
+  if (repack_all_) return;
+  if (respring_.size() >= springs_.size()) {
+    repack_all_ = true;
+    respring_.clear();
+    return;
+  }
+  respring_.push_back(spring);
+}
+
 void MassSpring::setSpring(int a, int b, double volume) {
   const int found = findSpring(a, b);
   if (volume <= 0.0) {
@@ -201,7 +213,7 @@ void MassSpring::setSpring(int a, int b, double volume) {
     }
     repack_from_ = std::min(repack_from_, last);  // the packing's end moves
     if (found != last) {
-      respring_.push_back(found);
+      noteChangedInPlace(found);
       springs_[found] = springs_[last];
       for (auto* lists : {&springs_from_, &springs_to_}) {
         std::vector<SpringRef>& moved =
@@ -230,7 +242,7 @@ void MassSpring::setSpring(int a, int b, double volume) {
     springs_to_[s.b].push_back({s.a, static_cast<int>(springs_.size())});
     springs_.push_back(s);
   } else {
-    respring_.push_back(found);
+    noteChangedInPlace(found);
     springs_[found] = s;
   }
 }
