@@ -588,9 +588,10 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MassSpring::as
   // the warm start dv (so that CG's first residual needs no pass of its own), summed into the
   // part's own buffers (zero on entry: the set-up's vertex loop zeroes each row it has read).
   // A spring both of whose ends are held (fixed, as a tray holds the bottom of an organ) adds
-  // only to rows that are zero: it is left out here and, through ends_, from every CG product.
-  // The part's other springs are packed, in order, into ends_ and blocks_ from the part's first
-  // slot (packedBegin(), updatePacking()): no free vertex's sums see another term. (Where removals
+  // only to rows that are zero: updatePacking() leaves it out of ends_, so it is left out here and
+  // from every CG product. The part's other springs are packed, in order, into ends_ (and their
+  // blocks into blocks_) from the part's first slot (packedBegin()): no free vertex's sums see
+  // another term. (Where removals
   // left a vertex's springs in two runs with only such springs between, the two runs are now one:
   // the same terms, added in another grouping. Keeping the old grouping with a flag a spring cost
   // 6% of a step.)
