@@ -90,6 +90,7 @@ void Tissue::reset() {
   if (config_.physics.enabled) physics_->prepare(1.0 / config_.rate);
   collapse_ =
       std::make_unique<CollapseQueue>(&mesh_, config_.collapse.tau, config_.collapse.budget_us);
+  if (config_.collapse.enabled) collapse_->prepare();
   if (clock_) collapse_->setBudgetClock(clock_);
   collapse_->setShapeTolerance(kShapeTolerance, kVolumeBudget * mesh_.restVolume(),
                                kShapeLengthFloor * cutter_->meanEdge());

@@ -499,25 +499,37 @@ TEST(Physics, NewVerticesBetweenFixedOnesAreFixed) {
 }
 
 TEST(Physics, PreparingAheadChangesNothingTheStepsDo) {
-  // prepare() does at load what the first step would (buffers, strong springs, clusters); the
-  // steps after it, through a change that makes a light, stiffly tied vertex, are those of a
-  // model that never prepared, to the bit.
+  // prepare() does at load what the first step would (buffers, strong springs, clusters, the
+  // inertia, the held rows and the springs' packing); the steps after it, straight away or
+  // through a change that makes a light, stiffly tied vertex first, on one thread or two, are
+  // those of a model that never prepared, to the bit.
   const MeshData block = makeBlock();
-  auto run = [&](bool prepared) {
+  auto run = [&](bool prepared, bool split, int threads) {
     TetMesh mesh(block.V, block.T);
-    MassSpring physics(&mesh, cantilever(1e5));
+    MassSpringParams params = cantilever(1e5);
+    params.threads = threads;
+    MassSpring physics(&mesh, params);
     if (prepared) physics.prepare(1e-3);
-    ChangeRecord change;
-    test::splitAt(&mesh, mesh.tetSlots() / 2, {0.997, 0.001, 0.001, 0.001}, &change);
-    physics.follow(change);
+    if (split) {
+      ChangeRecord change;
+      test::splitAt(&mesh, mesh.tetSlots() / 2, {0.997, 0.001, 0.001, 0.001}, &change);
+      physics.follow(change);
+    }
     for (int i = 0; i < 30; ++i) EXPECT_EQ(physics.step(1e-3), "");
     return std::make_pair(mesh.currentPositions(), physics.numClusters());
   };
-  const auto [cold, cold_clusters] = run(false);
-  const auto [warm, warm_clusters] = run(true);
-  EXPECT_GT(cold_clusters, 0);  // the split's corner is preconditioned as a cluster
-  EXPECT_EQ(warm_clusters, cold_clusters);
-  EXPECT_TRUE(warm == cold) << "a prepared model stepped differently";
+  for (const bool split : {true, false}) {
+    for (const int threads : {1, 2}) {
+      const auto [cold, cold_clusters] = run(false, split, threads);
+      const auto [warm, warm_clusters] = run(true, split, threads);
+      if (split) {
+        EXPECT_GT(cold_clusters, 0);  // the split's corner is preconditioned as a cluster
+      }
+      EXPECT_EQ(warm_clusters, cold_clusters);
+      EXPECT_TRUE(warm == cold) << "a prepared model stepped differently (split " << split << ", "
+                                << threads << " threads)";
+    }
+  }
 }
 
 TEST(Physics, StepsKeepingTheirPackingAndInertiaAreThoseThatMakeThemEveryStep) {

@@ -75,8 +75,9 @@ class MassSpring {
 
   /// One step of dt [s]. Returns a warning when the step was unstable (rolled back and damped).
   std::string step(double dt);
-  /// Does now what the first step of dt [s] would do before it solves: sizes the step's buffers
-  /// and finds the strong springs and their clusters (the first step of the 20k organ took 1.8
+  /// Does now what the first step of dt [s] would do before it solves: sizes the step's buffers,
+  /// finds the strong springs and their clusters, and makes the inertia, the held rows and the
+  /// springs' packing that steps keep until a change (the first step of the 20k organ took 1.8
   /// ms longer than the next, most of it first touching 3 MB of buffers). Optional: the steps
   /// after it are the same, to the bit, as without it; only when that work is done changes.
   void prepare(double dt);

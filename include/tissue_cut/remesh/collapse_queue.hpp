@@ -51,6 +51,10 @@ class CollapseQueue {
                ChangeRecord* change, bool busy_changed = true, double limit_us = -1.0,
                double budget_us = 0.0);
 
+  /// Sizes the queue's per-tet and per-vertex state for the mesh as it is now (as its first
+  /// call would): optional, the answers are the same; the first tick does not pay for it.
+  void prepare();
+
   /// Counts a tick that gave the queue no time (see Config::Collapse::deadline), if it held tets.
   void deferred() {
     if (pending() > 0) ++counts_.deferred_ticks;

@@ -1093,8 +1093,16 @@ void MassSpring::presolveLocally(double tolerance2, double* rz_total, double* rr
 void MassSpring::prepare(double dt) {
   resize();
   sizeStepBuffers();
+  // What the first step would make for itself and later steps keep until a change (the inertia,
+  // the held rows and the springs' packing), made now: the first tick after a load or a reset
+  // does not pay for it.
+  if (!inertia_valid_) updateInertia();
   if (!params_.implicit || !(dt > 0)) return;
   refreshClusters(dt);
+  const int n = mesh_->vertexSlots();
+  const unsigned char* alive = mesh_->vertexAliveFlags().data();
+  for (int v = 0; v < n; ++v) held_[v] = fixed_[v] || !alive[v];
+  updatePacking();
 }
 
 void MassSpring::refreshClusters(double dt) {

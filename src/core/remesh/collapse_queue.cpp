@@ -40,6 +40,12 @@ void CollapseQueue::clear() {
   counts_ = CollapseCounts{};
 }
 
+void CollapseQueue::prepare() {
+  growSlots(&queued_, mesh_->tetSlots(), {TetVerts{-1, -1, -1, -1}, -1});
+  growSlots(&vertex_stamp_, mesh_->vertexSlots(), {});
+  growSlots(&moves_, mesh_->vertexSlots(), {});
+}
+
 long long CollapseQueue::stampOf(int a, int b) const {
   auto at = [&](int v) {
     return v < static_cast<int>(vertex_stamp_.size()) ? vertex_stamp_[v] : 0LL;
