@@ -23,10 +23,16 @@ prints the medians over --repeats runs of each:
                           repeat replays every size in turn, so the sizes' runs alternate)
   machine check           bench_core's implicit step of its 20k block on one thread and on two,
                           before and after the replays (the machine's speed drifts, and its
-                          second vCPU is at times worth a quarter of a core)
+                          second vCPU is at times worth a quarter of a core), and on one thread
+                          on each vCPU alone (at times one vCPU runs the replays 1.5x slower
+                          than the other for minutes on end)
+
+--cpu N pins the one-thread replays with physics, the replays without physics and the one-thread
+machine check to vCPU N (the two-thread runs use both). Unpinned, the scheduler moves a replay
+between the vCPUs, and where their speeds differ the runs mix the two.
 
 usage: scripts/bench_table.py [--build build] [--repeats 5] [--sizes 5000 20000 80000]
-                              [--threads 1 2]
+                              [--threads 1 2] [--cpu N]
 Meshes, path and configuration go to BUILD/bench/ (made once, by meshes/src/make_organ.py and
 scripts/make_path.py). Needs gmsh and tetgen. Run it on a quiet machine: it measures time."""
 import argparse
@@ -55,18 +61,25 @@ CONFIG = """physics:
 """
 
 
-def run(cmd):
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+def pinned(cpu):
+    """A preexec_fn that runs the child on vCPU `cpu` alone (None: wherever it is scheduled)."""
+    if cpu is None:
+        return None
+    return lambda: os.sched_setaffinity(0, {cpu})
 
 
-def replay(build, mesh, path, config, stats, physics, tick_log=None):
+def run(cmd, cpu=None):
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, preexec_fn=pinned(cpu))
+
+
+def replay(build, mesh, path, config, stats, physics, tick_log=None, cpu=None):
     cmd = [os.path.join(build, 'devel/lib/tissue_cut/cut_replay'), '--mesh', mesh, '--path', path,
            '--blade-length', BLADE, '--config', config, '--quiet', '--stats', stats]
     if not physics:
         cmd.append('--no-physics')
     if tick_log:
         cmd += ['--tick-log', tick_log]
-    run(cmd)
+    run(cmd, cpu)
     with open(stats) as f:
         result = json.load(f)
     if tick_log:
@@ -82,28 +95,38 @@ def replay(build, mesh, path, config, stats, physics, tick_log=None):
     return result
 
 
-def machine_check(build):
-    """One implicit step of bench_core's 20k block on one thread and on two [us], or None. The
-    machine's speed drifts, and its second vCPU is at times worth a quarter of a core: taken
-    before and after the replays, this says which machine the table was measured on."""
-    bench = os.path.join(build, 'devel/lib/tissue_cut/bench_core')
-    if not os.path.exists(bench):
-        return None
-    out = subprocess.run([bench, '--benchmark_filter=PhysicsStep/20000/',
+def step_times(bench, threads, cpu=None):
+    """bench_core's implicit step of its 20k block [us] by thread count (`threads`: a filter)."""
+    out = subprocess.run([bench, '--benchmark_filter=PhysicsStep/20000/%s' % threads,
                           '--benchmark_min_time=0.3', '--benchmark_format=json'],
-                         check=True, capture_output=True, text=True)
+                         check=True, capture_output=True, text=True, preexec_fn=pinned(cpu))
     times = {}
     for b in json.loads(out.stdout)['benchmarks']:
         times[int(b['name'].split('/')[2])] = b['real_time']
-    return times.get(1), times.get(2)
+    return times
+
+
+def machine_check(build, cpu=None):
+    """One implicit step of bench_core's 20k block on one thread (on vCPU `cpu` if given) and on
+    two [us], and on one thread on each vCPU alone, or None. The machine's speed drifts, and its
+    second vCPU is at times worth a quarter of a core: taken before and after the replays, this
+    says which machine the table was measured on."""
+    bench = os.path.join(build, 'devel/lib/tissue_cut/bench_core')
+    if not os.path.exists(bench):
+        return None
+    one = step_times(bench, '1/', cpu).get(1)
+    two = step_times(bench, '2/').get(2)
+    each = [step_times(bench, '1/', c).get(1) for c in sorted(os.sched_getaffinity(0))]
+    return one, two, each
 
 
 def describe_check(when, check):
     if check is None:
         return 'machine check %s: bench_core not built' % when
-    one, two = check
+    one, two, each = check
     return ('machine check %s: one implicit step of the 20k block %.0f us on one thread, %.0f on '
-            'two (%.2fx)' % (when, one, two, one / two))
+            'two (%.2fx); on one thread on each vCPU: %s us' %
+            (when, one, two, one / two, ', '.join('%.0f' % t for t in each)))
 
 
 def cpu_model():
@@ -134,7 +157,12 @@ def main():
     p.add_argument('--repeats', type=int, default=5)
     p.add_argument('--sizes', type=int, nargs='+', default=[5000, 20000, 80000])
     p.add_argument('--threads', type=int, nargs='+', default=[1, 2])
+    p.add_argument('--cpu', type=int, default=None,
+                   help='run the one-thread and no-physics replays on this vCPU alone')
     a = p.parse_args()
+    if a.cpu is not None and a.cpu not in os.sched_getaffinity(0):
+        sys.exit('bench_table.py: --cpu %d: not one of this process\'s vCPUs %s' %
+                 (a.cpu, sorted(os.sched_getaffinity(0))))
     replay_bin = os.path.join(a.build, 'devel/lib/tissue_cut/cut_replay')
     if not os.path.exists(replay_bin):
         sys.exit('bench_table.py: %s not found: build first' % replay_bin)
@@ -157,7 +185,7 @@ def main():
         if not os.path.exists(prefixes[n] + '.ele'):
             run([sys.executable, os.path.join(ROOT, 'meshes', 'src', 'make_organ.py'), prefixes[n],
                  '--tets', str(n)])
-    check_before = machine_check(a.build)
+    check_before = machine_check(a.build, a.cpu)
     # Each repeat replays every size in turn, so that the sizes share the machine's drifts in
     # speed and the 4x ratio compares runs taken alternately (run size by size, the 80k replays
     # came minutes after the 20k ones: once 1.60 where the runs before and after gave 1.30).
@@ -169,10 +197,10 @@ def main():
             for t in a.threads:
                 full[n][t].append(replay(a.build, mesh, path, threaded[t],
                                          os.path.join(out, 'full%d_t%d_%d.json' % (n, t, k)),
-                                         True))
+                                         True, cpu=a.cpu if t == 1 else None))
             plain[n].append(replay(a.build, mesh, path, config,
                                    os.path.join(out, 'plain%d_%d.json' % (n, k)), False,
-                                   os.path.join(out, 'plain%d_%d_ticks.csv' % (n, k))))
+                                   os.path.join(out, 'plain%d_%d_ticks.csv' % (n, k)), a.cpu))
     for n in a.sizes:
         for t in a.threads:
             runs = full[n][t]
@@ -210,9 +238,11 @@ def main():
             'ec_per_cut': median([s['collapse']['time_ms'] * 1000.0 /
                                   max(1, s['cut']['cut_tetrahedra']) for s in plain[n]]),
         })
-    check_after = machine_check(a.build)
+    check_after = machine_check(a.build, a.cpu)
     print('machine: %s, %d cores, %s; %d runs each, medians' %
           (cpu_model(), os.cpu_count(), platform.platform(), a.repeats))
+    print('one-thread and no-physics replays %s' %
+          ('pinned to vCPU %d' % a.cpu if a.cpu is not None else 'not pinned (see --cpu)'))
     print(describe_check('before', check_before))
     print(describe_check('after', check_after))
     print('With physics and collapse:')
