@@ -72,7 +72,7 @@ class CollapseQueue {
   /// stops once its time plus that reaches the limit, so that the tick ends by its deadline.
   void setFollowCost(double us_per_tet) { follow_us_per_tet_ = us_per_tet; }
   /// Under a limit, each step after a call's first is taken only if the time it is likely to
-  /// take fits before the limit too: the 90th percentile of the last kRecentSteps steps' times
+  /// take fits before the limit too: the 99th percentile of the last kRecentSteps steps' times
   /// measured under a limit (their own and their changes' follow cost) [us]; 0 before any.
   double stepReserve() const;
   /// The clock the budget is measured on [us, any origin]; null (the default): the steady clock.
