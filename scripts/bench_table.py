@@ -29,10 +29,13 @@ prints the medians over --repeats runs of each:
 
 --cpu N pins the one-thread replays with physics, the replays without physics and the one-thread
 machine check to vCPU N (the two-thread runs use both). Unpinned, the scheduler moves a replay
-between the vCPUs, and where their speeds differ the runs mix the two.
+between the vCPUs, and where their speeds differ the runs mix the two. --cpu auto pins each of
+those replays to the vCPU whose one-thread step (bench_core, 0.1 s on each) is the faster just
+before it, and prints how often each was chosen and the two times: the table then measures a
+vCPU the host is not slowing at that moment (see the Performance section of the README).
 
 usage: scripts/bench_table.py [--build build] [--repeats 5] [--sizes 5000 20000 80000]
-                              [--threads 1 2] [--cpu N]
+                              [--threads 1 2] [--cpu N|auto]
 Meshes, path and configuration go to BUILD/bench/ (made once, by meshes/src/make_organ.py and
 scripts/make_path.py). Needs gmsh and tetgen. Run it on a quiet machine: it measures time."""
 import argparse
@@ -106,6 +109,24 @@ def step_times(bench, threads, cpu=None):
     return times
 
 
+def faster_cpu(build, chosen):
+    """The vCPU whose one-thread 20k step is the faster now (bench_core, 0.1 s on each); appends
+    (vCPU, [us on each]) to `chosen`. None without bench_core."""
+    bench = os.path.join(build, 'devel/lib/tissue_cut/bench_core')
+    if not os.path.exists(bench):
+        return None
+    cpus = sorted(os.sched_getaffinity(0))
+    times = []
+    for c in cpus:
+        out = subprocess.run([bench, '--benchmark_filter=PhysicsStep/20000/1/',
+                              '--benchmark_min_time=0.1', '--benchmark_format=json'],
+                             check=True, capture_output=True, text=True, preexec_fn=pinned(c))
+        times.append(json.loads(out.stdout)['benchmarks'][0]['real_time'])
+    best = cpus[times.index(min(times))]
+    chosen.append((best, times))
+    return best
+
+
 def machine_check(build, cpu=None):
     """One implicit step of bench_core's 20k block on one thread (on vCPU `cpu` if given) and on
     two [us], and on one thread on each vCPU alone, or None. The machine's speed drifts, and its
@@ -157,9 +178,18 @@ def main():
     p.add_argument('--repeats', type=int, default=5)
     p.add_argument('--sizes', type=int, nargs='+', default=[5000, 20000, 80000])
     p.add_argument('--threads', type=int, nargs='+', default=[1, 2])
-    p.add_argument('--cpu', type=int, default=None,
-                   help='run the one-thread and no-physics replays on this vCPU alone')
+    p.add_argument('--cpu', default=None,
+                   help='run the one-thread and no-physics replays on this vCPU alone, or '
+                        '"auto": each on the faster vCPU just before it')
     a = p.parse_args()
+    auto = a.cpu == 'auto'
+    if auto:
+        a.cpu = None
+    elif a.cpu is not None:
+        try:
+            a.cpu = int(a.cpu)
+        except ValueError:
+            sys.exit('bench_table.py: --cpu %s: a vCPU number or "auto"' % a.cpu)
     if a.cpu is not None and a.cpu not in os.sched_getaffinity(0):
         sys.exit('bench_table.py: --cpu %d: not one of this process\'s vCPUs %s' %
                  (a.cpu, sorted(os.sched_getaffinity(0))))
@@ -191,16 +221,21 @@ def main():
     # came minutes after the 20k ones: once 1.60 where the runs before and after gave 1.30).
     full = {n: {t: [] for t in a.threads} for n in a.sizes}
     plain = {n: [] for n in a.sizes}
+    chosen = []  # --cpu auto: (vCPU, its and the other's step [us]) for each pinned replay
+
+    def where():
+        return faster_cpu(a.build, chosen) if auto else a.cpu
+
     for k in range(a.repeats):
         for n in a.sizes:
             mesh = prefixes[n] + '.node'
             for t in a.threads:
                 full[n][t].append(replay(a.build, mesh, path, threaded[t],
                                          os.path.join(out, 'full%d_t%d_%d.json' % (n, t, k)),
-                                         True, cpu=a.cpu if t == 1 else None))
+                                         True, cpu=where() if t == 1 else None))
             plain[n].append(replay(a.build, mesh, path, config,
                                    os.path.join(out, 'plain%d_%d.json' % (n, k)), False,
-                                   os.path.join(out, 'plain%d_%d_ticks.csv' % (n, k)), a.cpu))
+                                   os.path.join(out, 'plain%d_%d_ticks.csv' % (n, k)), where()))
     for n in a.sizes:
         for t in a.threads:
             runs = full[n][t]
@@ -241,8 +276,16 @@ def main():
     check_after = machine_check(a.build, a.cpu)
     print('machine: %s, %d cores, %s; %d runs each, medians' %
           (cpu_model(), os.cpu_count(), platform.platform(), a.repeats))
-    print('one-thread and no-physics replays %s' %
-          ('pinned to vCPU %d' % a.cpu if a.cpu is not None else 'not pinned (see --cpu)'))
+    if auto and chosen:
+        counts = ', '.join('vCPU %d %d times' % (c, sum(1 for x, _ in chosen if x == c))
+                           for c in sorted(set(x for x, _ in chosen)))
+        ratios = sorted(max(t) / min(t) for _, t in chosen)
+        print('one-thread and no-physics replays each pinned to the faster vCPU just before it '
+              '(--cpu auto): %s; slower over faster vCPU: median %.2f, %.2f-%.2f' %
+              (counts, median(ratios), ratios[0], ratios[-1]))
+    else:
+        print('one-thread and no-physics replays %s' %
+              ('pinned to vCPU %d' % a.cpu if a.cpu is not None else 'not pinned (see --cpu)'))
     print(describe_check('before', check_before))
     print(describe_check('after', check_after))
     print('With physics and collapse:')
