@@ -98,10 +98,10 @@ def replay(build, mesh, path, config, stats, physics, tick_log=None, cpu=None):
     return result
 
 
-def step_times(bench, threads, cpu=None):
+def step_times(bench, threads, cpu=None, min_time=0.3):
     """bench_core's implicit step of its 20k block [us] by thread count (`threads`: a filter)."""
     out = subprocess.run([bench, '--benchmark_filter=PhysicsStep/20000/%s' % threads,
-                          '--benchmark_min_time=0.3', '--benchmark_format=json'],
+                          '--benchmark_min_time=%g' % min_time, '--benchmark_format=json'],
                          check=True, capture_output=True, text=True, preexec_fn=pinned(cpu))
     times = {}
     for b in json.loads(out.stdout)['benchmarks']:
@@ -116,12 +116,7 @@ def faster_cpu(build, chosen):
     if not os.path.exists(bench):
         return None
     cpus = sorted(os.sched_getaffinity(0))
-    times = []
-    for c in cpus:
-        out = subprocess.run([bench, '--benchmark_filter=PhysicsStep/20000/1/',
-                              '--benchmark_min_time=0.1', '--benchmark_format=json'],
-                             check=True, capture_output=True, text=True, preexec_fn=pinned(c))
-        times.append(json.loads(out.stdout)['benchmarks'][0]['real_time'])
+    times = [step_times(bench, '1/', c, 0.1)[1] for c in cpus]
     best = cpus[times.index(min(times))]
     chosen.append((best, times))
     return best
@@ -277,12 +272,12 @@ def main():
     print('machine: %s, %d cores, %s; %d runs each, medians' %
           (cpu_model(), os.cpu_count(), platform.platform(), a.repeats))
     if auto and chosen:
-        counts = ', '.join('vCPU %d %d times' % (c, sum(1 for x, _ in chosen if x == c))
+        counts = ', '.join('vCPU %d for %d' % (c, sum(1 for x, _ in chosen if x == c))
                            for c in sorted(set(x for x, _ in chosen)))
         ratios = sorted(max(t) / min(t) for _, t in chosen)
         print('one-thread and no-physics replays each pinned to the faster vCPU just before it '
-              '(--cpu auto): %s; slower over faster vCPU: median %.2f, %.2f-%.2f' %
-              (counts, median(ratios), ratios[0], ratios[-1]))
+              '(--cpu auto): %s of %d; slower over faster vCPU: median %.2f, %.2f-%.2f' %
+              (counts, len(chosen), median(ratios), ratios[0], ratios[-1]))
     else:
         print('one-thread and no-physics replays %s' %
               ('pinned to vCPU %d' % a.cpu if a.cpu is not None else 'not pinned (see --cpu)'))

@@ -1101,7 +1101,7 @@ void MassSpring::prepare(double dt) {
   refreshClusters(dt);
   const int n = mesh_->vertexSlots();
   const unsigned char* alive = mesh_->vertexAliveFlags().data();
-  for (int v = 0; v < n; ++v) held_[v] = fixed_[v] || !alive[v];
+  for (int v = 0; v < n; ++v) held_[v] = fixed_[v] || !alive[v];  // as the warm start marks them
   updatePacking();
 }
 

@@ -17,14 +17,16 @@ namespace {
 // kMaxMoves times: the queue cannot cycle.
 constexpr double kMinSmoothingGain = 1e-3;
 constexpr int kMaxMoves = 16;
-// Under a limit, the step reserve is this percentile of the recent steps' times (of 64: the
-// longest but none). At the 90th, one step in ten ran past the reserve, and ticks the queue had
+// Under a limit, the step reserve is this percentile of the recent steps' times (of the last
+// 64: the longest). At the 90th, one step in ten ran past the reserve, and ticks the queue had
 // filled to the deadline (0.9 ms) ended up to 0.14 ms after it: on the 20k organ on one core,
 // 2-4 of the 11 ticks over the 99th percentile. At the 99th, 28 alternating replays: tick p99
 // 0.910 -> 0.885 ms (median), lower in 21 of 28 pairs; 33-34 collapses either way.
 constexpr int kReservePercent = 99;
 // A flip must raise the worst Q of the tets it replaces by this much.
 constexpr double kMinFlipGain = 1e-3;
+// queued_'s entry for a tet slot not in the heap as it is now.
+const std::pair<TetVerts, long long> kNotQueued{TetVerts{-1, -1, -1, -1}, -1};
 }  // namespace
 
 CollapseQueue::CollapseQueue(TetMesh* mesh, double tau, double budget_us)
@@ -47,7 +49,7 @@ void CollapseQueue::clear() {
 }
 
 void CollapseQueue::prepare() {
-  growSlots(&queued_, mesh_->tetSlots(), {TetVerts{-1, -1, -1, -1}, -1});
+  growSlots(&queued_, mesh_->tetSlots(), kNotQueued);
   growSlots(&vertex_stamp_, mesh_->vertexSlots(), {});
   growSlots(&moves_, mesh_->vertexSlots(), {});
 }
@@ -80,7 +82,7 @@ void CollapseQueue::queueTet(int t) {
   if (!mesh_->tetAlive(t)) return;
   const TetVerts& tv = mesh_->tet(t);
   const long long stamp = stampOf(tv);
-  growSlots(&queued_, mesh_->tetSlots(), {TetVerts{-1, -1, -1, -1}, -1});
+  growSlots(&queued_, mesh_->tetSlots(), kNotQueued);
   if (queued_[t].first == tv && queued_[t].second == stamp) return;  // already queued as it is
   const double q = restQuality(*mesh_, t);
   if (!(q < tau_)) return;
