@@ -142,8 +142,17 @@ class MassSpring {
     double xx, xy, xz, yy, yz, zz;
   };
   void forces(std::vector<Vec3>* f) const;
-  /// Runs part(0) .. part(numThreads() - 1) at once (see WorkerTeam).
-  void parallel(const std::function<void(int)>& part);
+  /// Runs part(0) .. part(numThreads() - 1) at once (see WorkerTeam). The callable reaches the
+  /// team by reference: a std::function made from a lambda that captures more than two pointers'
+  /// worth allocates it on the heap, which two of the step's loops did on every step.
+  template <class Part>
+  void parallel(const Part& part) {
+    if (team_) {
+      team_->run(std::cref(part));
+    } else {
+      part(0);
+    }
+  }
   /// The part'th of numThreads() nearly equal ranges of [0, count).
   std::pair<int, int> rangeOf(int count, int part) const;
   // A vertex's vector in 32 bytes, the fourth double zero: CG's products and vertex loops read

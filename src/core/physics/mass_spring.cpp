@@ -397,14 +397,6 @@ void MassSpring::forces(std::vector<Vec3>* f) const {
   }
 }
 
-void MassSpring::parallel(const std::function<void(int)>& part) {
-  if (team_) {
-    team_->run(part);
-  } else {
-    part(0);
-  }
-}
-
 int MassSpring::numThreads() const { return team_ ? team_->size() : 1; }
 
 std::pair<int, int> MassSpring::rangeOf(int count, int part) const {
