@@ -150,8 +150,7 @@ class Cutter {
   };
 
   void sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change);
-  void crossFront(const std::vector<std::array<Vec3, 2>>& front, const Vec3& inward,
-                  ChangeRecord* change);
+  void crossFront(const std::array<Vec3, 2>& front, const Vec3& inward, ChangeRecord* change);
   std::vector<Coarse> coarseNear(const Vec3& lo, const Vec3& hi);
   TetVerts cornersOf(const Coarse& c) const;
   bool coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const;

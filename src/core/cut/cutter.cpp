@@ -1379,12 +1379,14 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   // The ribbon's own edges (the tip's and base's paths, and the blade where the stroke began)
   // are its front: an edge crossing right on the front is left whole and the front's face points
   // take its place, so a front running along mesh faces makes no points on their edges.
-  std::vector<std::array<Vec3, 2>> front{{from.tip, to.tip}, {from.base, to.base}};
-  if (stroke_start_) front.push_back({from.base, from.tip});
+  // (On the stack: a sweep is made on every tick the blade moves near the tissue.)
+  const std::array<std::array<Vec3, 2>, 3> front{
+      {{from.tip, to.tip}, {from.base, to.base}, {from.base, from.tip}}};
+  const int fronts = stroke_start_ ? 3 : 2;
   const double front_gap = frontShift();
   auto nearFront = [&](const Vec3& x) {
-    for (const auto& seg : front)
-      if (distanceToSegment(x, seg[0], seg[1]) < front_gap) return true;
+    for (int i = 0; i < fronts; ++i)
+      if (distanceToSegment(x, front[i][0], front[i][1]) < front_gap) return true;
     return false;
   };
   for (const auto& [a, b] : edges) {  // mayCross() held; registering points changes none of it
@@ -1645,7 +1647,7 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
          !crossed(quiet_base_faces_, from.base, to.base, to.tip - to.base);
 }
 
-void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const Vec3& inward,
+void Cutter::crossFront(const std::array<Vec3, 2>& front, const Vec3& inward,
                         ChangeRecord* change) {
   // A front running exactly along mesh faces or through edges (a tip at the depth of a grid
   // plane) is moved by frontShift() into the cut surface (the tip's path toward the base, the
@@ -1653,48 +1655,47 @@ void Cutter::crossFront(const std::vector<std::array<Vec3, 2>>& front_in, const 
   // only. Edge crossings closer than that to the front are not made (see sweep()), so the points
   // of every tet still describe one surface ending at the moved front.
   const Vec3 shift = inward.norm() > 0 ? Vec3(frontShift() * inward.normalized()) : Vec3::Zero();
-  for (auto seg : front_in) {
-    // The cut surface's normal here (zero when the blade has not moved: no wound band then).
-    Vec3 normal = (seg[1] - seg[0]).cross(inward);
-    if (normal.norm() > 1e-12 * mean_edge_ * mean_edge_) normal.normalize();
-    else normal = Vec3::Zero();
-    seg[0] += shift;
-    seg[1] += shift;
-    Vec3 lo = seg[0].cwiseMin(seg[1]), hi = seg[0].cwiseMax(seg[1]);
-    const std::vector<Coarse> near = coarseNear(lo, hi);
-    // The faces in increasing order of their (oriented) triples, each once, as a std::set would
-    // give them; the first orientation of a face met in that order is the one taken.
-    // Only a face whose box meets the segment's (grown by far more than the crossing test's
-    // rounding margin) can be crossed; both orientations of a face pass or fail alike.
-    const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_ + 1e-6 * (seg[1] - seg[0]).norm());
-    const Vec3 seg_lo = lo - slack, seg_hi = hi + slack;
-    std::vector<std::array<int, 3>>& faces = face_scratch_;
-    faces.clear();
-    for (const Coarse& c : near) {
-      const TetVerts tv = cornersOf(c);
-      for (const auto& f : kTetFace) {
-        const Vec3 &a = mesh_->current(tv[f[0]]), &b = mesh_->current(tv[f[1]]),
-                   &d = mesh_->current(tv[f[2]]);
-        if ((a.cwiseMin(b).cwiseMin(d).array() > seg_hi.array()).any() ||
-            (a.cwiseMax(b).cwiseMax(d).array() < seg_lo.array()).any())
-          continue;
-        faces.push_back({tv[f[0]], tv[f[1]], tv[f[2]]});
-      }
+  std::array<Vec3, 2> seg = front;  // moved by the shift below
+  // The cut surface's normal here (zero when the blade has not moved: no wound band then).
+  Vec3 normal = (seg[1] - seg[0]).cross(inward);
+  if (normal.norm() > 1e-12 * mean_edge_ * mean_edge_) normal.normalize();
+  else normal = Vec3::Zero();
+  seg[0] += shift;
+  seg[1] += shift;
+  Vec3 lo = seg[0].cwiseMin(seg[1]), hi = seg[0].cwiseMax(seg[1]);
+  const std::vector<Coarse> near = coarseNear(lo, hi);
+  // The faces in increasing order of their (oriented) triples, each once, as a std::set would
+  // give them; the first orientation of a face met in that order is the one taken.
+  // Only a face whose box meets the segment's (grown by far more than the crossing test's
+  // rounding margin) can be crossed; both orientations of a face pass or fail alike.
+  const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_ + 1e-6 * (seg[1] - seg[0]).norm());
+  const Vec3 seg_lo = lo - slack, seg_hi = hi + slack;
+  std::vector<std::array<int, 3>>& faces = face_scratch_;
+  faces.clear();
+  for (const Coarse& c : near) {
+    const TetVerts tv = cornersOf(c);
+    for (const auto& f : kTetFace) {
+      const Vec3 &a = mesh_->current(tv[f[0]]), &b = mesh_->current(tv[f[1]]),
+                 &d = mesh_->current(tv[f[2]]);
+      if ((a.cwiseMin(b).cwiseMin(d).array() > seg_hi.array()).any() ||
+          (a.cwiseMax(b).cwiseMax(d).array() < seg_lo.array()).any())
+        continue;
+      faces.push_back({tv[f[0]], tv[f[1]], tv[f[2]]});
     }
-    std::sort(faces.begin(), faces.end());
-    faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-    std::vector<std::array<int, 3>> done;  // few
-    for (const auto& face : faces) {
-      const std::array<int, 3> key = sortedFace(face[0], face[1], face[2]);
-      if (std::find(done.begin(), done.end(), key) != done.end()) continue;
-      done.push_back(key);
-      const Triangle tri{mesh_->current(face[0]), mesh_->current(face[1]), mesh_->current(face[2])};
-      double s;
-      Vec3 bary;
-      if (segmentCrossesTriangle(seg[0], seg[1], tri, 1e-9, &s, &bary) &&
-          !woundAround(seg[0] + s * (seg[1] - seg[0]), {face[0], face[1], face[2]}, normal))
-        registerFacePoint(face, bary, change);
-    }
+  }
+  std::sort(faces.begin(), faces.end());
+  faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+  std::vector<std::array<int, 3>> done;  // few
+  for (const auto& face : faces) {
+    const std::array<int, 3> key = sortedFace(face[0], face[1], face[2]);
+    if (std::find(done.begin(), done.end(), key) != done.end()) continue;
+    done.push_back(key);
+    const Triangle tri{mesh_->current(face[0]), mesh_->current(face[1]), mesh_->current(face[2])};
+    double s;
+    Vec3 bary;
+    if (segmentCrossesTriangle(seg[0], seg[1], tri, 1e-9, &s, &bary) &&
+        !woundAround(seg[0] + s * (seg[1] - seg[0]), {face[0], face[1], face[2]}, normal))
+      registerFacePoint(face, bary, change);
   }
 }
 
