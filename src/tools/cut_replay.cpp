@@ -1,5 +1,6 @@
 // cut_replay: replays a scalpel path over a tissue mesh offline, through the same Tissue::step as
 // the node, and reports the mesh and its statistics.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -12,6 +13,7 @@
 
 #include "tissue_cut/config.hpp"
 #include "bag_path.hpp"
+#include "heap_count.hpp"
 #include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/mesh/mesh_io.hpp"
 #include "tissue_cut/tissue.hpp"
@@ -223,6 +225,7 @@ int main(int argc, char** argv) {
     double wall_ms, cpu_ms, cut_ms, collapse_ms, physics_ms;
     long long cg_iterations;
     int cut_tets, collapses;
+    long long allocations;
   };
   std::vector<TickRow> rows;
   if (opt.check) {
@@ -242,6 +245,8 @@ int main(int argc, char** argv) {
   const auto wall_start = std::chrono::steady_clock::now();
   TickTimes cpu_times;
   double cpu_total_ms = 0.0;
+  // Heap allocations made during the ticks (any thread): in all, on how many ticks, the most.
+  long long allocations = 0, allocating_ticks = 0, allocations_max = 0;
   // The last tick takes the blade away (lifted out of the tissue), so the cut it made is finished:
   // every tet it was still inside is replaced and opened. With --settle, the ticks after it (up to
   // `settle` seconds more, blade away) work off what the collapse queue still holds: a path that
@@ -254,10 +259,15 @@ int main(int argc, char** argv) {
     const long long cg0 = tissue->physics().totalIterations();
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start = threadCpuMs();
+    const long long heap0 = heapAllocations();
     const std::string warning = tissue->step(blade, dt);
+    const long long heap = heapAllocations() - heap0;
     const double cpu_ms = threadCpuMs() - cpu_start;
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    allocations += heap;
+    allocating_ticks += heap > 0 ? 1 : 0;
+    allocations_max = std::max(allocations_max, heap);
     if (tick_log.is_open()) {
       const CutCounts& cut = tissue->cutter().counts();
       const CollapseCounts& collapse = tissue->collapse().counts();
@@ -266,7 +276,7 @@ int main(int argc, char** argv) {
                       tissue->physics().timeMs() - physics0,
                       tissue->physics().totalIterations() - cg0,
                       cut.cut_tetrahedra - cut0.cut_tetrahedra,
-                      collapse.collapsed_edges - collapse0.collapsed_edges});
+                      collapse.collapsed_edges - collapse0.collapsed_edges, heap});
     }
     if (!warning.empty() && !opt.quiet)
       std::cerr << "cut_replay: tick " << k << ": " << warning << "\n";
@@ -310,12 +320,12 @@ int main(int argc, char** argv) {
   try {
     if (tick_log.is_open()) {
       tick_log << "tick,t,wall_ms,cpu_ms,cut_ms,collapse_ms,physics_ms,cg_iterations,cut_tets,"
-                  "collapses\n";
+                  "collapses,allocations\n";
       char line[256];
       for (const TickRow& r : rows) {
-        std::snprintf(line, sizeof(line), "%lld,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%lld,%d,%d\n", r.k,
-                      t0 + r.k * dt, r.wall_ms, r.cpu_ms, r.cut_ms, r.collapse_ms, r.physics_ms,
-                      r.cg_iterations, r.cut_tets, r.collapses);
+        std::snprintf(line, sizeof(line), "%lld,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%lld,%d,%d,%lld\n",
+                      r.k, t0 + r.k * dt, r.wall_ms, r.cpu_ms, r.cut_ms, r.collapse_ms,
+                      r.physics_ms, r.cg_iterations, r.cut_tets, r.collapses, r.allocations);
         tick_log << line;
       }
       tick_log.close();
@@ -325,7 +335,11 @@ int main(int argc, char** argv) {
     if (!opt.stats.empty()) {
       std::ofstream f(opt.stats);
       if (!f) throw std::runtime_error(opt.stats + ": cannot write the statistics file");
-      f << stats.toJson().dump(2) << "\n";
+      nlohmann::json j = stats.toJson();
+      j["ticks"]["allocations"] = {{"total", allocations},
+                                   {"ticks_allocating", allocating_ticks},
+                                   {"max_per_tick", allocations_max}};
+      f << j.dump(2) << "\n";
       if (!f) throw std::runtime_error(opt.stats + ": writing the statistics failed");
     }
   } catch (const std::exception& e) {
@@ -343,6 +357,9 @@ int main(int argc, char** argv) {
                 tissue->cutter().counts().separation_tries);
     std::printf("replay      %lld ticks (%.3f simulated s) in %.3f s wall: real-time factor %.2f\n",
                 ticks + 1, (ticks + 1) * dt, wall_s, stats.ticks.real_time_factor);
+    std::printf("heap        %lld allocations during the ticks, on %lld of them (at most %lld in "
+                "one)\n",
+                allocations, allocating_ticks, allocations_max);
   }
   return 0;
 }

@@ -168,17 +168,24 @@ TEST(CutReplayCli, TickLogHasARowATickThatAddsUpToTheStatistics) {
   std::string line;
   ASSERT_TRUE(std::getline(in, line));
   EXPECT_EQ(line,
-            "tick,t,wall_ms,cpu_ms,cut_ms,collapse_ms,physics_ms,cg_iterations,cut_tets,collapses");
+            "tick,t,wall_ms,cpu_ms,cut_ms,collapse_ms,physics_ms,cg_iterations,cut_tets,collapses,"
+            "allocations");
   long long count = 0, cg = 0, cut_tets = 0, collapses = 0;
+  long long allocations = 0, allocating = 0, most = 0;
   double cut_ms = 0, collapse_ms = 0, physics_ms = 0, max_wall = 0;
   while (std::getline(in, line)) {
-    long long tick, iterations;
+    long long tick, iterations, heap;
     double t, wall, cpu, cut, collapse, physics;
     int tets, edges;
-    ASSERT_EQ(std::sscanf(line.c_str(), "%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lld,%d,%d", &tick, &t, &wall,
-                          &cpu, &cut, &collapse, &physics, &iterations, &tets, &edges),
-              10)
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lld,%d,%d,%lld", &tick, &t,
+                          &wall, &cpu, &cut, &collapse, &physics, &iterations, &tets, &edges,
+                          &heap),
+              11)
         << line;
+    EXPECT_GE(heap, 0) << line;
+    allocations += heap;
+    allocating += heap > 0 ? 1 : 0;
+    most = std::max(most, heap);
     ++count;
     EXPECT_EQ(tick, count) << line;
     EXPECT_NEAR(t, tick / 250.0, 1e-9) << line;
@@ -196,6 +203,13 @@ TEST(CutReplayCli, TickLogHasARowATickThatAddsUpToTheStatistics) {
   }
   EXPECT_EQ(count, s["ticks"]["count"].get<long long>());
   EXPECT_EQ(count, 501);  // 2 s at 250 Hz, then the lift
+  // The heap allocations the ticks made: the cuts allocate (new tets, points, lists), the
+  // stretches of the stroke that cut nothing do not (see test_allocations).
+  EXPECT_EQ(allocations, s["ticks"]["allocations"]["total"].get<long long>());
+  EXPECT_EQ(allocating, s["ticks"]["allocations"]["ticks_allocating"].get<long long>());
+  EXPECT_EQ(most, s["ticks"]["allocations"]["max_per_tick"].get<long long>());
+  EXPECT_GT(allocations, 0);
+  EXPECT_LT(allocating, count);
   EXPECT_GT(cut_tets, 0);
   EXPECT_EQ(cut_tets, s["cut"]["cut_tetrahedra"].get<long long>());
   EXPECT_GT(collapses, 0);

@@ -1,0 +1,74 @@
+// A running model's ticks that change no tet take nothing from the heap: the node runs them at 1
+// kHz beside a haptic loop, where an allocation can wait on a lock the allocator holds for another
+// thread. This binary links src/tools/heap_count.cpp, which replaces operator new with one that
+// counts.
+#include <gtest/gtest.h>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "heap_count.hpp"
+#include "tissue_cut/tissue.hpp"
+
+using namespace tissue_cut;
+
+namespace {
+
+// The allocations `ticks` ticks make with the blade at `blade` (none: away).
+long long allocationsOver(Tissue* tissue, int ticks, const std::optional<BladeSegment>& blade) {
+  const double dt = 1.0 / tissue->config().rate;
+  const long long before = heapAllocations();
+  for (int k = 0; k < ticks; ++k) {
+    const std::string warning = tissue->step(blade, dt);
+    if (!warning.empty()) ADD_FAILURE() << "tick " << k << ": " << warning;
+  }
+  return heapAllocations() - before;
+}
+
+// The blade 30 mm long, upright, its tip `height` [m] above the block's floor at (x, y) [m].
+BladeSegment upright(double x, double y, double height) {
+  return {Vec3(x, y, height + 0.03), Vec3(x, y, height)};
+}
+
+}  // namespace
+
+// Without this, the tests below would pass with a counter that never counts.
+TEST(Allocations, TheCounterCountsThisBinarysAllocations) {
+  const long long before = heapAllocations();
+  auto* v = new std::vector<int>(1000, 7);
+  const long long after = heapAllocations();
+  EXPECT_GE(after - before, 2);  // the vector and its elements
+  delete v;
+}
+
+// Once the first steps have sized the step's buffers, a step with the blade away, or above the
+// tissue, allocates nothing: on one thread and on two, with either integrator. The blade's first
+// ticks over the tissue size the cutter's search lists and its first pass over a stretch sizes
+// them for that stretch (each list grows to the most it held, as std::vector does); the ticks
+// after allocate nothing. (Every step had allocated twice: two of the implicit step's loops went
+// to the worker team as a std::function too small for their lambdas' captures; and every tick
+// the blade moved near the tissue, three times: the sweep's and its fronts' segment lists.)
+TEST(Allocations, StepsThatChangeNoTetAllocateNothingOnceRunning) {
+  for (const char* integrator : {"implicit", "semi_implicit"})
+    for (int threads : {1, 2}) {
+      SCOPED_TRACE(std::string(integrator) + ", threads " + std::to_string(threads));
+      Config config;
+      config.physics.integrator = integrator;
+      config.physics.threads = threads;
+      Tissue tissue(config, loadTissueMesh(config));
+      allocationsOver(&tissue, 20, std::nullopt);  // the first steps size the buffers
+      EXPECT_EQ(allocationsOver(&tissue, 200, std::nullopt), 0);
+      // The blade upright 5 mm above the top face (at 30 mm): put down, then still.
+      allocationsOver(&tissue, 10, upright(-0.02, 0.0, 0.035));
+      EXPECT_EQ(allocationsOver(&tissue, 100, upright(-0.02, 0.0, 0.035)), 0);
+      // Moving 0.2 mm a tick along x, 40 mm and back: the way back is counted.
+      const double dt = 1.0 / config.rate;
+      for (int k = 1; k <= 200; ++k) tissue.step(upright(-0.02 + 2e-4 * k, 0.0, 0.035), dt);
+      const long long before = heapAllocations();
+      for (int k = 199; k >= 0; --k) tissue.step(upright(-0.02 + 2e-4 * k, 0.0, 0.035), dt);
+      EXPECT_EQ(heapAllocations() - before, 0);
+      EXPECT_EQ(tissue.cutter().counts().cut_tetrahedra, 0);
+      EXPECT_GT(tissue.physics().timeMs(), 0.0);  // the physics ran all along
+    }
+}
