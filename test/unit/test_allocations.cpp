@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "heap_count.hpp"
+#include "tissue_cut/cut/split_table.hpp"
 #include "tissue_cut/tissue.hpp"
 
 using namespace tissue_cut;
@@ -30,6 +31,24 @@ long long allocationsOver(Tissue* tissue, int ticks, const std::optional<BladeSe
 BladeSegment upright(double x, double y, double height) {
   return {Vec3(x, y, height + 0.03), Vec3(x, y, height)};
 }
+
+// A tet (corners 0-3) and the points a cut left on it, positions by global id.
+struct CutTet {
+  std::vector<Vec3> pos{{0, 0, 0}, {1, 0, 0}, {0.2, 1, 0}, {0.3, 0.3, 1}};
+  TetCut cut;
+  CutTet() { cut.corner = {0, 1, 2, 3}; }
+  int add(const Vec3& p) {
+    pos.push_back(p);
+    return static_cast<int>(pos.size()) - 1;
+  }
+  void edgePoint(int e) {
+    cut.edge_point[e] = add(0.5 * (pos[kTetEdge[e][0]] + pos[kTetEdge[e][1]]));
+  }
+  void facePoint(int f) {
+    cut.face_point[f] =
+        add((pos[kTetFace[f][0]] + pos[kTetFace[f][1]] + pos[kTetFace[f][2]]) / 3.0);
+  }
+};
 
 }  // namespace
 
@@ -71,4 +90,43 @@ TEST(Allocations, StepsThatChangeNoTetAllocateNothingOnceRunning) {
       EXPECT_EQ(tissue.cutter().counts().cut_tetrahedra, 0);
       EXPECT_GT(tissue.physics().timeMs(), 0.0);  // the physics ran all along
     }
+}
+
+// Replacing a cut tet takes from the heap only the two lists it returns (its tets, its cut
+// faces): the faces' triangles, the candidate cones and the checks' lists stay in place. A cut
+// tick replaces and subdivides tets by the dozen (each had made 20-40 allocations here).
+TEST(Allocations, ASplitAllocatesOnlyTheListsItReturns) {
+  struct Case {
+    const char* name;
+    std::vector<int> edges, faces;
+    bool steiner;
+    SplitKind kind;
+  };
+  const std::vector<Case> cases = {
+      {"3 edges around a corner", {0, 1, 2}, {}, false, SplitKind::kComplete},
+      {"4 edges, a quad", {1, 2, 3, 4}, {}, false, SplitKind::kComplete},
+      {"a front across two faces", {0}, {2, 3}, false, SplitKind::kPartial},
+      {"a face's three edges", {0, 1, 3}, {}, true, SplitKind::kTent},
+      {"opposite edges", {0, 5}, {}, false, SplitKind::kCone},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    CutTet tet;
+    for (int e : c.edges) tet.edgePoint(e);
+    for (int f : c.faces) tet.facePoint(f);
+    const int steiner =
+        c.steiner ? tet.add((tet.pos[0] + tet.pos[1] + tet.pos[2] + tet.pos[3]) / 4.0) : -1;
+    const std::vector<Vec3>& pos = tet.pos;
+    const PositionFn at = [&pos](int v) { return pos[v]; };
+    long long before = heapAllocations();
+    const TetSplit split = splitTet(tet.cut, at, at, steiner);
+    const long long made = heapAllocations() - before;
+    EXPECT_EQ(split.kind, c.kind) << splitKindName(split.kind);
+    EXPECT_GE(split.tets.size(), 2u);
+    EXPECT_EQ(made, split.cut_faces.empty() ? 1 : 2);
+    before = heapAllocations();
+    const TetSplit pieces = subdivideTet(tet.cut, at, at, steiner);
+    EXPECT_EQ(heapAllocations() - before, 1);
+    EXPECT_GE(pieces.tets.size(), 2u);
+  }
 }

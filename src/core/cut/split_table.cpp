@@ -2,14 +2,20 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
-#include <set>
+
+#include "tissue_cut/mesh/inline_vector.hpp"
 
 namespace tissue_cut {
 
 namespace {
 
+// The lists a split builds are short and bounded by the tet: in place, not on the heap (on the
+// 20k bench replay they had made ~120 allocations for each cut tet). A face has at most 6
+// triangles (a face point fanning its three corners and three edge points), a tet's faces 24; a
+// side of a complete cut is coned over at most 16 face triangles and 2 cut triangles.
 using Tri = std::array<int, 3>;
+using Tris = InlineVector<Tri, 24>;
+using Tets = InlineVector<TetVerts, 48>;
 
 bool holds(const Tri& t, int v) { return t[0] == v || t[1] == v || t[2] == v; }
 
@@ -60,7 +66,8 @@ struct Checker {
       if (cut.face_point[f] == v) return 1 << f;
     return 0;
   }
-  bool positive(const std::vector<TetVerts>& tets) const {
+  template <typename TetList>
+  bool positive(const TetList& tets) const {
     for (const TetVerts& t : tets) {
       // Four points on one face of the tet are flat, whatever round-off makes of their volume
       // (a cone from a corner over a face point's fan on a face holding that corner: in a
@@ -76,7 +83,8 @@ struct Checker {
   }
 
   // Positive and adding up to the whole: a wrong decomposition overlaps and overshoots.
-  bool valid(const std::vector<TetVerts>& tets) const {
+  template <typename TetList>
+  bool valid(const TetList& tets) const {
     if (!positive(tets)) return false;
     double sum = 0.0;
     for (const TetVerts& t : tets)
@@ -85,17 +93,17 @@ struct Checker {
   }
 };
 
-std::vector<Tri> allFaceTriangles(const TetCut& cut) {
-  std::vector<Tri> out;
-  for (int f = 0; f < 4; ++f) {
-    auto tris = faceTriangles(cut, f);
-    out.insert(out.end(), tris.begin(), tris.end());
-  }
+void appendFaceTriangles(const TetCut& cut, int f, Tris* out);
+
+Tris allFaceTriangles(const TetCut& cut) {
+  Tris out;
+  for (int f = 0; f < 4; ++f) appendFaceTriangles(cut, f, &out);
   return out;
 }
 
-std::vector<TetVerts> coneFrom(int apex, const std::vector<Tri>& triangles) {
-  std::vector<TetVerts> tets;
+template <typename TriList>
+Tets coneFrom(int apex, const TriList& triangles) {
+  Tets tets;
   for (const Tri& t : triangles)
     if (!holds(t, apex)) tets.push_back({apex, t[0], t[1], t[2]});
   return tets;
@@ -109,7 +117,7 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
   for (int e = 0; e < 6; ++e)
     if (cut.edge_point[e] >= 0 && (cut.on_cut[kTetEdge[e][0]] || cut.on_cut[kTetEdge[e][1]]))
       return false;
-  std::vector<int> free_corners;
+  InlineVector<int, 4> free_corners;
   for (int c = 0; c < 4; ++c)
     if (!cut.on_cut[c]) free_corners.push_back(c);
   std::array<int, 4> side{0, 0, 0, 0};
@@ -140,28 +148,30 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
   }
 
   // Side of every vertex of the tet's points: corners by their side, cut points 0.
-  std::map<int, int> side_of;
-  for (int c = 0; c < 4; ++c) side_of[cut.corner[c]] = side[c];
-  std::vector<int> polygon;  // the cut polygon's vertices
-  std::vector<int> polygon_edges;
+  auto side_of = [&](int v) {
+    for (int c = 0; c < 4; ++c)
+      if (cut.corner[c] == v) return side[c];
+    return 0;
+  };
+  InlineVector<int, 10> polygon;  // the cut polygon's vertices
+  InlineVector<int, 6> polygon_edges;
   for (int c = 0; c < 4; ++c)
     if (cut.on_cut[c]) polygon.push_back(cut.corner[c]);
   for (int e = 0; e < 6; ++e)
     if (cut.edge_point[e] >= 0) {
-      side_of[cut.edge_point[e]] = 0;
       polygon.push_back(cut.edge_point[e]);
       polygon_edges.push_back(e);
     }
   // The cut polygon (a triangle, or a quad with either diagonal: the one that lets both sides be
   // coned is taken), then each side coned from the first of its vertices that gives only valid
   // tets (the smallest id, when the quad diagonals run through it as in Dompierre et al.).
-  std::vector<std::vector<Tri>> cut_options;
+  using CutTris = InlineVector<Tri, 2>;
+  InlineVector<CutTris, 2> cut_options;
   if (polygon.size() == 3) {
-    cut_options.push_back({{polygon[0], polygon[1], polygon[2]}});
+    cut_options.push_back({Tri{polygon[0], polygon[1], polygon[2]}});
   } else if (polygon.size() == 4 && polygon_edges.size() == 4) {
-    std::vector<int> order{0};
-    std::vector<bool> used(4, false);
-    used[0] = true;
+    InlineVector<int, 4> order{0};
+    std::array<bool, 4> used{true, false, false, false};
     while (order.size() < 4) {
       int next = -1;
       for (int k = 0; k < 4 && next < 0; ++k)
@@ -174,43 +184,46 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
     for (int k = 0; k < 4; ++k) q[k] = polygon[order[k]];
     const int m = static_cast<int>(std::min_element(q, q + 4) - q);
     for (int shift : {m, (m + 1) % 4})
-      cut_options.push_back({{q[shift], q[(shift + 1) % 4], q[(shift + 2) % 4]},
-                             {q[shift], q[(shift + 2) % 4], q[(shift + 3) % 4]}});
+      cut_options.push_back({Tri{q[shift], q[(shift + 1) % 4], q[(shift + 2) % 4]},
+                             Tri{q[shift], q[(shift + 2) % 4], q[(shift + 3) % 4]}});
   } else {
     return false;
   }
   int plus_corner = -1;
   for (int c = 0; c < 4; ++c)
     if (side[c] > 0) plus_corner = cut.corner[c];
-  const std::vector<Tri> faces = allFaceTriangles(cut);
-  for (std::vector<Tri> cut_tris : cut_options) {
+  const Tris faces = allFaceTriangles(cut);
+  for (CutTris cut_tris : cut_options) {
     // Orient the cut triangles outward from the + side: a + corner must see them positively.
     for (Tri& t : cut_tris)
       if (signedVolume(check.rest(plus_corner), check.rest(t[0]), check.rest(t[1]),
                        check.rest(t[2])) < 0)
         std::swap(t[1], t[2]);
-    TetSplit split;
-    split.kind = SplitKind::kComplete;
+    Tets split_tets;
     bool ok = true;
     for (int s : {1, -1}) {
-      std::vector<Tri> region;
+      InlineVector<Tri, 26> region;
       for (const Tri& t : faces) {
         int lo = 1, hi = -1;
         for (int v : t) {
-          lo = std::min(lo, side_of[v]);
-          hi = std::max(hi, side_of[v]);
+          lo = std::min(lo, side_of(v));
+          hi = std::max(hi, side_of(v));
         }
         if (lo < 0 && hi > 0) return false;  // a face triangle across the cut: not a plane cut
         if ((s > 0 && hi > 0) || (s < 0 && lo < 0)) region.push_back(t);
       }
       for (const Tri& t : cut_tris) region.push_back(s > 0 ? t : Tri{t[0], t[2], t[1]});
-      std::set<int> vertices;
-      for (const Tri& t : region) vertices.insert(t.begin(), t.end());
-      std::vector<TetVerts> best;
-      for (int apex : vertices) {
-        auto tets = coneFrom(apex, region);
+      // The region's vertices, ascending.
+      InlineVector<int, 78> vertices;
+      for (const Tri& t : region)
+        for (int v : t) vertices.push_back(v);
+      std::sort(vertices.begin(), vertices.end());
+      const int* vertices_end = std::unique(vertices.begin(), vertices.end());
+      Tets best;
+      for (const int* apex = vertices.begin(); apex != vertices_end; ++apex) {
+        const Tets tets = coneFrom(*apex, region);
         if (check.positive(tets)) {
-          best = std::move(tets);
+          best = tets;
           break;
         }
       }
@@ -218,12 +231,13 @@ bool splitComplete(const TetCut& cut, const Checker& check, TetSplit* out) {
         ok = false;
         break;
       }
-      split.tets.insert(split.tets.end(), best.begin(), best.end());
+      for (const TetVerts& t : best) split_tets.push_back(t);
     }
     if (!ok) continue;
-    split.cut_faces = cut_tris;
-    if (!check.valid(split.tets)) continue;
-    *out = std::move(split);
+    if (!check.valid(split_tets)) continue;
+    out->kind = SplitKind::kComplete;
+    out->tets.assign(split_tets.begin(), split_tets.end());
+    out->cut_faces.assign(cut_tris.begin(), cut_tris.end());
     return true;
   }
   return false;
@@ -238,7 +252,7 @@ bool splitPartial(const TetCut& cut, const Checker& check, TetSplit* out) {
   if (cut.face_point[faces[1]] < cut.face_point[faces[0]]) std::swap(faces[0], faces[1]);
   const int F1 = faces[0], F2 = faces[1];
   const int f1 = cut.face_point[F1], f2 = cut.face_point[F2];
-  std::vector<int> edges;
+  InlineVector<int, 6> edges;
   for (int e = 0; e < 6; ++e)
     if (cut.edge_point[e] >= 0) edges.push_back(e);
   if (edges.size() > 3) return false;
@@ -247,16 +261,17 @@ bool splitPartial(const TetCut& cut, const Checker& check, TetSplit* out) {
     auto fs = edgeFaces(e);
     return fs[0] == f || fs[1] == f;
   };
-  std::vector<int> path;
+  InlineVector<int, 6> path;
   bool found = edges.empty();
   std::sort(edges.begin(), edges.end());
   if (!found) do {
-      if (!onFace(edges.front(), F1) || !onFace(edges.back(), F2)) continue;
-      std::set<int> used{F1, F2};
+      if (!onFace(edges[0], F1) || !onFace(edges.back(), F2)) continue;
+      int used = (1 << F1) | (1 << F2);  // faces, as bits
       bool ok = true;
       for (std::size_t i = 0; i + 1 < edges.size() && ok; ++i) {
         const int g = commonFace(edges[i], edges[i + 1]);
-        ok = g >= 0 && used.insert(g).second;
+        ok = g >= 0 && !(used & (1 << g));
+        if (ok) used |= 1 << g;
       }
       if (ok) {
         path = edges;
@@ -266,17 +281,18 @@ bool splitPartial(const TetCut& cut, const Checker& check, TetSplit* out) {
     } while (std::next_permutation(edges.begin(), edges.end()));
   if (!found) return false;
 
-  TetSplit split;
-  split.kind = SplitKind::kPartial;
-  split.tets = coneFrom(f1, allFaceTriangles(cut));
-  std::vector<int> chain;
+  const Tets tets = coneFrom(f1, allFaceTriangles(cut));
+  if (!check.valid(tets)) return false;
+  InlineVector<int, 7> chain;
   for (int e : path) chain.push_back(cut.edge_point[e]);
   chain.push_back(f2);
-  if (path.empty()) split.kind = SplitKind::kCone;  // a front with no cut surface here
+  // (path empty: a front with no cut surface here)
+  out->kind = path.empty() ? SplitKind::kCone : SplitKind::kPartial;
+  out->tets.assign(tets.begin(), tets.end());
+  out->cut_faces.clear();
+  out->cut_faces.reserve(chain.size() - 1);
   for (std::size_t i = 0; i + 1 < chain.size(); ++i)
-    split.cut_faces.push_back({f1, chain[i], chain[i + 1]});
-  if (!check.valid(split.tets)) return false;
-  *out = std::move(split);
+    out->cut_faces.push_back({f1, chain[i], chain[i + 1]});
   return true;
 }
 
@@ -304,20 +320,26 @@ bool onSameTetEdge(const TetCut& cut, int x, int y) {
   return false;
 }
 
-// Traces the cut left on the faces: face-triangle edges joining two cut points across a face.
-std::vector<std::array<int, 2>> faceTraces(const TetCut& cut) {
-  std::set<std::array<int, 2>> traces;
+// Traces the cut left on the faces: face-triangle edges joining two cut points across a face,
+// each once, ascending.
+using Traces = InlineVector<std::array<int, 2>, 72>;
+Traces faceTraces(const TetCut& cut) {
+  Traces traces;
   for (const Tri& t : allFaceTriangles(cut))
     for (int k = 0; k < 3; ++k) {
       const int x = t[k], y = t[(k + 1) % 3];
       if (isCutPoint(cut, x) && isCutPoint(cut, y) && !onSameTetEdge(cut, x, y))
-        traces.insert({std::min(x, y), std::max(x, y)});
+        traces.push_back({std::min(x, y), std::max(x, y)});
     }
-  return {traces.begin(), traces.end()};
+  std::sort(traces.begin(), traces.end());
+  Traces once;
+  for (const auto& t : traces)
+    if (once.empty() || once.back() != t) once.push_back(t);
+  return once;
 }
 
 bool coneFromAPoint(const TetCut& cut, const Checker& check, TetSplit* out) {
-  std::vector<int> apexes;
+  InlineVector<int, 14> apexes;
   for (int f = 0; f < 4; ++f)
     if (cut.face_point[f] >= 0) apexes.push_back(cut.face_point[f]);
   for (int c = 0; c < 4; ++c) apexes.push_back(cut.corner[c]);
@@ -325,10 +347,10 @@ bool coneFromAPoint(const TetCut& cut, const Checker& check, TetSplit* out) {
     if (cut.edge_point[e] >= 0) apexes.push_back(cut.edge_point[e]);
   const auto triangles = allFaceTriangles(cut);
   for (int apex : apexes) {
-    auto tets = coneFrom(apex, triangles);
+    const Tets tets = coneFrom(apex, triangles);
     if (check.valid(tets)) {
       out->kind = SplitKind::kCone;
-      out->tets = std::move(tets);
+      out->tets.assign(tets.begin(), tets.end());
       out->cut_faces.clear();
       return true;
     }
@@ -376,30 +398,48 @@ int tetEdgeIndex(int i, int j) {
   return -1;
 }
 
-std::vector<std::array<int, 3>> faceTriangles(const TetCut& cut, int f) {
+namespace {
+
+void appendFaceTriangles(const TetCut& cut, int f, Tris* out) {
   const int A = kTetFace[f][0], B = kTetFace[f][1], C = kTetFace[f][2];
   const int a = cut.corner[A], b = cut.corner[B], c = cut.corner[C];
   const int mA = cut.edge_point[tetEdgeIndex(B, C)];  // opposite a
   const int mB = cut.edge_point[tetEdgeIndex(C, A)];
   const int mC = cut.edge_point[tetEdgeIndex(A, B)];
-  std::vector<Tri> out;
   if (cut.face_point[f] >= 0) {
     const int fp = cut.face_point[f];
-    std::vector<int> ring;
+    InlineVector<int, 6> ring;
     for (int v : {a, mC, b, mA, c, mB})
       if (v >= 0) ring.push_back(v);
     for (std::size_t i = 0; i < ring.size(); ++i)
-      out.push_back({ring[i], ring[(i + 1) % ring.size()], fp});
-    return out;
+      out->push_back({ring[i], ring[(i + 1) % ring.size()], fp});
+    return;
   }
   const int k = (mA >= 0) + (mB >= 0) + (mC >= 0);
-  if (k == 0) return {{a, b, c}};
-  if (k == 1) {
-    if (mA >= 0) return {{a, b, mA}, {a, mA, c}};
-    if (mB >= 0) return {{b, c, mB}, {b, mB, a}};
-    return {{c, a, mC}, {c, mC, b}};
+  if (k == 0) {
+    out->push_back({a, b, c});
+    return;
   }
-  if (k == 3) return {{a, mC, mB}, {b, mA, mC}, {c, mB, mA}, {mC, mA, mB}};
+  if (k == 1) {
+    if (mA >= 0) {
+      out->push_back({a, b, mA});
+      out->push_back({a, mA, c});
+    } else if (mB >= 0) {
+      out->push_back({b, c, mB});
+      out->push_back({b, mB, a});
+    } else {
+      out->push_back({c, a, mC});
+      out->push_back({c, mC, b});
+    }
+    return;
+  }
+  if (k == 3) {
+    out->push_back({a, mC, mB});
+    out->push_back({b, mA, mC});
+    out->push_back({c, mB, mA});
+    out->push_back({mC, mA, mB});
+    return;
+  }
   // Two points: split off the corner X they share, then the quad (p, Y, Z, q) by the diagonal
   // from the older point (smaller id) to the corner opposite its edge. That is how the face was
   // split when only the older point existed, so a neighbour that was replaced back then (its
@@ -412,15 +452,22 @@ std::vector<std::array<int, 3>> faceTriangles(const TetCut& cut, int f) {
   } else {
     X = c, Y = a, Z = b, p = mB, q = mA;
   }
-  out.push_back({X, p, q});
+  out->push_back({X, p, q});
   if (p < q) {  // p on XY sees Z
-    out.push_back({p, Y, Z});
-    out.push_back({p, Z, q});
+    out->push_back({p, Y, Z});
+    out->push_back({p, Z, q});
   } else {  // q on ZX sees Y
-    out.push_back({p, Y, q});
-    out.push_back({Y, Z, q});
+    out->push_back({p, Y, q});
+    out->push_back({Y, Z, q});
   }
-  return out;
+}
+
+}  // namespace
+
+std::vector<std::array<int, 3>> faceTriangles(const TetCut& cut, int f) {
+  Tris tris;
+  appendFaceTriangles(cut, f, &tris);
+  return {tris.begin(), tris.end()};
 }
 
 TetSplit splitTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current,
@@ -443,7 +490,9 @@ TetSplit splitTet(const TetCut& cut, const PositionFn& rest, const PositionFn& c
     return out;
   }
   out.kind = SplitKind::kTent;
-  out.tets = coneFrom(steiner, allFaceTriangles(cut));
+  const Tets tets = coneFrom(steiner, allFaceTriangles(cut));
+  out.tets.assign(tets.begin(), tets.end());
+  out.cut_faces.reserve(traces.size());
   for (const auto& t : traces) out.cut_faces.push_back({steiner, t[0], t[1]});
   return out;
 }
@@ -463,7 +512,8 @@ TetSplit subdivideTet(const TetCut& cut, const PositionFn& rest, const PositionF
     return out;
   }
   out.kind = SplitKind::kCone;
-  out.tets = coneFrom(steiner, allFaceTriangles(cut));
+  const Tets tets = coneFrom(steiner, allFaceTriangles(cut));
+  out.tets.assign(tets.begin(), tets.end());
   return out;
 }
 
