@@ -120,6 +120,9 @@ class Tissue {
   std::array<double, kRecentFollows> recent_follow_{};
   long long follows_ = 0;
   std::function<double()> clock_;  // null: the steady clock
+  // The tick's change and the collapse queue's, emptied before each use (their lists keep their
+  // room: a tick takes nothing from the heap for them once they have grown).
+  ChangeRecord tick_change_, collapsed_;
   std::vector<unsigned char> cut_region_;
   std::vector<unsigned char> removed_flag_;  // applyChange()'s scratch: removed tets' flags
   std::vector<unsigned> removed_seen_;       // and the record they belong to

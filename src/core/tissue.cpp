@@ -203,7 +203,8 @@ void Tissue::workCollapseQueueByDeadline(double tick_start_us) {
 }
 
 void Tissue::workCollapseQueue(double limit_us, double budget_us) {
-  ChangeRecord collapsed;
+  ChangeRecord& collapsed = collapsed_;
+  collapsed.clear();
   // Tets waiting for the cutter are looked at again only when its state changed.
   const long long epoch = cutter_->stateEpoch();
   collapse_->process([this](int v) { return cutter_->isBusy(v); },
@@ -229,7 +230,8 @@ std::string Tissue::step(const std::optional<BladeSegment>& blade, double dt) {
   // the time to wake it (20-40 us, and as much again before it helps: measured on the 20k
   // organ's cut ticks); it stays up for this tick instead.
   if (config_.physics.enabled) physics_->expectStep(1e6 / config_.rate);
-  ChangeRecord change;
+  ChangeRecord& change = tick_change_;
+  change.clear();
   std::string warning;
   if (blade && !(blade->base.allFinite() && blade->tip.allFinite())) {
     // A broken pose must not reach the geometry; the cut waits for the next good one.

@@ -130,3 +130,36 @@ TEST(Allocations, ASplitAllocatesOnlyTheListsItReturns) {
     EXPECT_GE(pieces.tets.size(), 2u);
   }
 }
+
+// A tick's record composed with each change after it (a cut's, a collapse's) takes nothing from
+// the heap once its lists have room: append() keeps its own lists a thread, for short records
+// (scanned) and long ones (noted in a table) alike.
+TEST(Allocations, ComposingIntoARecordWithRoomAllocatesNothing) {
+  ChangeRecord tick, later;
+  auto fill = [&](int n) {
+    tick.clear();
+    later.clear();
+    for (int t = 0; t < n; ++t) {
+      tick.added_tets.push_back(t);
+      tick.added_from.push_back(-1);
+    }
+    for (int t = 0; t < n; t += 2) later.removed_tets.push_back(t);  // half of them go again
+    later.removed_tets.push_back(n + 5);                             // and one there before
+    for (int t = 0; t < n / 2; ++t) {
+      later.added_tets.push_back(n + 10 + t);
+      later.added_from.push_back(2 * t);  // continuing one added and removed again
+    }
+  };
+  for (int n : {8, 400}) {
+    SCOPED_TRACE(n);
+    fill(n);
+    tick.append(later);  // the lists grow to this size
+    fill(n);
+    const long long before = heapAllocations();
+    tick.append(later);
+    EXPECT_EQ(heapAllocations() - before, 0);
+    EXPECT_EQ(tick.removed_tets, std::vector<int>{n + 5});
+    EXPECT_EQ(tick.added_tets.size(), static_cast<std::size_t>(n));  // n / 2 kept, n / 2 new
+    for (int from : tick.added_from) EXPECT_EQ(from, -1);            // new elements, all of them
+  }
+}

@@ -201,6 +201,8 @@ class Cutter {
                   const std::function<std::vector<int>(ChangeRecord*)>& make,
                   ChangeRecord* change, std::vector<int>* ids);
   void refreshGrid(const ChangeRecord& change);
+  /// changeMesh()'s record, emptied before each use.
+  ChangeRecord mesh_change_;
   /// Tets just filed (anew) that the grid could return for a box inside the cached one join it.
   void joinNearCache(const std::vector<int>& tets);
   void rebuildGrid();

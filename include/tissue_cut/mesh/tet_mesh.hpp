@@ -109,6 +109,9 @@ struct ChangeRecord {
       merged_vertices;  ///< (removed, survivor), also in removed_vertices
 
   bool empty() const;
+  /// Empties every list and keeps their room: a record reused change after change (the tick's,
+  /// a collapse's) stops taking from the heap once its lists have grown to a tick's size.
+  void clear();
   /// Composes `later`, which happened after this record, into one net change: what was added
   /// and removed again within the two vanishes from both lists.
   void append(const ChangeRecord& later);

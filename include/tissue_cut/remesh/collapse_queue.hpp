@@ -168,6 +168,8 @@ class CollapseQueue {
   std::vector<std::pair<TetVerts, long long>> queued_;  // per tet slot: the entry in the heap
   std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
   std::vector<int> around_scratch_;  // touched()'s: the vertices of a star
+  // A collapse's, flip's or move's record, emptied before each use.
+  ChangeRecord step_change_;
   // Where the cut left the surface: the rest positions of boundary vertices collapsed away, each
   // kept by the vertex that took its place. Collapses and 2-2 flips keep every such point within
   // shape_tolerance_ * length_floor_ of the surface around the vertex holding it, so the surface

@@ -347,7 +347,8 @@ bool Cutter::splitOff(const std::vector<int>& tets, int v, int copy, ChangeRecor
 bool Cutter::changeMesh(const std::vector<int>& remove,
                         const std::function<std::vector<int>(ChangeRecord*)>& make,
                         ChangeRecord* change, std::vector<int>* ids) {
-  ChangeRecord local;
+  ChangeRecord& local = mesh_change_;  // (make() changes only the mesh: never nested)
+  local.clear();
   std::vector<int> added;
   try {
     added = make(&local);

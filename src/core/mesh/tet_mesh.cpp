@@ -65,6 +65,16 @@ bool ChangeRecord::empty() const {
          removed_vertices.empty();
 }
 
+void ChangeRecord::clear() {
+  removed_tets.clear();
+  added_tets.clear();
+  added_from.clear();
+  added_vertices.clear();
+  vertex_parents.clear();
+  removed_vertices.clear();
+  merged_vertices.clear();
+}
+
 void ChangeRecord::append(const ChangeRecord& later) { append(later, 256); }
 
 namespace {
@@ -72,13 +82,19 @@ namespace {
 // A tet slot as a key of append()'s notes.
 std::uint64_t slotKey(int t) { return static_cast<std::uint32_t>(t); }
 
-// append()'s notes, one table a thread, kept between calls. (A table over every tet slot, as
-// these notes were, cost its thread's first long record 0.6-0.7 ms of page faults in the middle
-// of a tick on the 20k organ.) Only long records reach it: finding a thread_local in this shared
-// library is a call.
-StampedTable<long long>& appendNotes() {
-  thread_local StampedTable<long long> notes;
-  return notes;
+// append()'s scratch, one a thread, kept between calls so that their room is: the notes (a
+// table over every tet slot, as these notes were, cost its thread's first long record 0.6-0.7 ms
+// of page faults in the middle of a tick on the 20k organ), later's removed slots with their
+// origins, and which of the added ones they cancel.
+struct AppendScratch {
+  StampedTable<long long> notes;
+  std::vector<std::pair<int, int>> origin;
+  std::vector<char> cancelled;
+};
+
+AppendScratch& appendScratch() {
+  thread_local AppendScratch scratch;
+  return scratch;
 }
 
 }  // namespace
@@ -89,20 +105,22 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   // records composed are small next to a tick's (one collapse, flip or move appended to what the
   // tick did so far): short lists are scanned; for longer ones (a tick's record of hundreds of
   // tets against a collapse's dozen removed, most of them not added here) each slot's place is
-  // noted first in a table (appendNotes()).
-  StampedTable<long long>* notes = nullptr;  // found when first needed
+  // noted first in a table (appendScratch()).
+  AppendScratch& scratch = appendScratch();
+  StampedTable<long long>* notes = nullptr;  // begun when first needed
   const std::size_t n_added = added_tets.size();
   const bool scan_added = later.removed_tets.size() * n_added <= scan_limit;
   if (!scan_added) {
-    notes = &appendNotes();
+    notes = &scratch.notes;
     notes->begin(n_added);
     for (std::size_t i = 0; i < n_added; ++i)
       notes->put(slotKey(added_tets[i]), static_cast<long long>(i));  // the last, as scanned
   }
   // later's removed slots and what each continued, in later.removed_tets' order
-  std::vector<std::pair<int, int>> origin;
-  origin.reserve(later.removed_tets.size());
-  std::vector<char> cancelled;
+  std::vector<std::pair<int, int>>& origin = scratch.origin;
+  origin.clear();
+  std::vector<char>& cancelled = scratch.cancelled;
+  cancelled.clear();
   for (int t : later.removed_tets) {
     std::size_t i = n_added;
     if (scan_added) {
@@ -136,7 +154,7 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   }
   const bool scan_origin = later.added_tets.size() * origin.size() <= scan_limit;
   if (!scan_origin) {
-    if (!notes) notes = &appendNotes();
+    notes = &scratch.notes;
     notes->begin(origin.size());
     for (const auto& [t, o] : origin)
       if (!notes->contains(slotKey(t))) notes->put(slotKey(t), o);  // the first, as scanned

@@ -7,8 +7,8 @@
 #include <set>
 
 #include "tissue_cut/mesh/quality.hpp"
-#include "tissue_cut/statistics.hpp"
 #include "tissue_cut/remesh/vertex_smoothing.hpp"
+#include "tissue_cut/statistics.hpp"
 
 namespace tissue_cut {
 
@@ -162,7 +162,8 @@ bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(in
   }
   if (best.removed < 0) return false;
   moveGhosts(best.removed, best.survivor);
-  ChangeRecord local;
+  ChangeRecord& local = step_change_;
+  local.clear();
   mesh_->mergeVertices(best.removed, best.survivor, &local);
   if (shape_tolerance_ > 0.0) volume_changed_ += best.volume_change;
   ++counts_.collapsed_edges;
@@ -203,7 +204,8 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
                     length_floor_));
   }
   if (!found) return false;
-  ChangeRecord local;
+  ChangeRecord& local = step_change_;
+  local.clear();
   const std::vector<int> added = applyFlip(mesh_, best, &local);
   ++counts_.flips;
   volume_changed_ += best.volume_change;
@@ -331,8 +333,7 @@ bool CollapseQueue::ghostsKept(const FlipCandidate& flip) const {
 }
 
 void CollapseQueue::moveGhosts(int removed, int survivor) {
-  if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0 || !isBoundaryVertex(*mesh_, removed))
-    return;
+  if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0 || !isBoundaryVertex(*mesh_, removed)) return;
   std::vector<Vec3>& kept = ghosts_[survivor];
   kept.push_back(mesh_->rest(removed));
   const auto it = ghosts_.find(removed);
@@ -351,7 +352,8 @@ bool CollapseQueue::smoothAny(const TetVerts& tv, const std::function<bool(int)>
       *stopped = true;
       return false;
     }
-    ChangeRecord local;
+    ChangeRecord& local = step_change_;
+    local.clear();
     if (!smoothVertex(mesh_, v, kMinSmoothingGain, &local)) {
       refused(v, -1);
       continue;
