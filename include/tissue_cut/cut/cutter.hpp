@@ -26,6 +26,7 @@
 #include "tissue_cut/cut/blade.hpp"
 #include "tissue_cut/cut/split_table.hpp"
 #include "tissue_cut/cut/sweep.hpp"
+#include "tissue_cut/mesh/inline_vector.hpp"
 #include "tissue_cut/mesh/stamped_table.hpp"
 #include "tissue_cut/mesh/tet_grid.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -151,12 +152,14 @@ class Cutter {
 
   void sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change);
   void crossFront(const std::array<Vec3, 2>& front, const Vec3& inward, ChangeRecord* change);
-  std::vector<Coarse> coarseNear(const Vec3& lo, const Vec3& hi);
+  /// An edge's or a face's vertices.
+  using Corners = InlineVector<int, 3>;
+  void coarseNear(const Vec3& lo, const Vec3& hi, std::vector<Coarse>* out);
   TetVerts cornersOf(const Coarse& c) const;
-  bool coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const;
+  bool coarseAround(const Corners& verts, std::vector<Coarse>* out) const;
   int makePending(int tet);
   bool faceOnBoundary(const Coarse& c, const std::array<int, 3>& face) const;
-  bool conforming(const std::vector<Coarse>& around, const std::vector<int>& verts) const;
+  bool conforming(const std::vector<Coarse>& around, const Corners& verts) const;
   void registerEdgePoint(int a, int b, double s, ChangeRecord* change);
   void registerFacePoint(const std::array<int, 3>& face, const Vec3& weights, ChangeRecord* change);
   void trySnap(int v, const std::array<Triangle, 2>& tris,
@@ -220,7 +223,7 @@ class Cutter {
   /// A lower bound of tet t's distance from the blade at gap_ref_, in current positions.
   double gapOf(int t) const;
   /// The Coarse tets of `tets` (a pending tet once, at its first piece).
-  std::vector<Coarse> coarseOf(const std::vector<int>& tets) const;
+  void coarseOf(const std::vector<int>& tets, std::vector<Coarse>* out) const;
 
   TetMesh* mesh_;
   CutterOptions options_;
@@ -383,6 +386,10 @@ class Cutter {
   std::string refusal_;  // the first refused replacement of this tick
   // Scratch buffers of one tick, kept for their capacity.
   std::vector<int> near_scratch_;
+  std::vector<Coarse> sweep_near_, front_near_;  // sweep()'s and crossFront()'s coarse tets
+  std::vector<Coarse> around_;  // the coarse tets around an edge or face a point is put on
+  mutable std::vector<int> seen_scratch_;    // coarseOf()'s and coarseAround()'s pending tets
+  mutable std::vector<int> points_scratch_;  // conforming()'s points
   std::vector<int> refiled_;  // tets the grid filed anew this tick (TetGrid::refresh)
   std::vector<int> update_refiled_;  // and with a change (TetGrid::update)
   double moved_ = 0.0;        // how far vertices may have moved since the grid's last refresh

@@ -400,7 +400,7 @@ TetVerts Cutter::cornersOf(const Coarse& c) const {
   return c.pending >= 0 ? pending_.at(c.pending).cut.corner : mesh_->tet(c.tet);
 }
 
-std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
+void Cutter::coarseNear(const Vec3& lo, const Vec3& hi, std::vector<Coarse>* out) {
   if (swept_valid_ && (lo.array() >= swept_lo_.array()).all() &&
       (hi.array() <= swept_hi_.array()).all()) {
     // Inside this tick's sweep box, whose tets no change since has replaced: filter those,
@@ -411,32 +411,32 @@ std::vector<Cutter::Coarse> Cutter::coarseNear(const Vec3& lo, const Vec3& hi) {
   } else {
     gridQuery(lo, hi, &near_scratch_);
   }
-  return coarseOf(near_scratch_);
+  coarseOf(near_scratch_, out);
 }
 
-std::vector<Cutter::Coarse> Cutter::coarseOf(const std::vector<int>& tets) const {
-  std::vector<Coarse> out;
-  out.reserve(tets.size());
-  std::vector<int> seen_pending;  // few: the tets the blade is inside
+void Cutter::coarseOf(const std::vector<int>& tets, std::vector<Coarse>* out) const {
+  out->clear();
+  std::vector<int>& seen_pending = seen_scratch_;  // few: the tets the blade is inside
+  seen_pending.clear();
   for (int t : tets) {
     const int pid = pending_of_[t];
     if (pid < 0) {
-      out.push_back({-1, t});
+      out->push_back({-1, t});
     } else if (std::find(seen_pending.begin(), seen_pending.end(), pid) == seen_pending.end()) {
       seen_pending.push_back(pid);
-      out.push_back({pid, -1});
+      out->push_back({pid, -1});
     }
   }
-  return out;
 }
 
-bool Cutter::coarseAround(const std::vector<int>& verts, std::vector<Coarse>* out) const {
+bool Cutter::coarseAround(const Corners& verts, std::vector<Coarse>* out) const {
   // The coarse tets (plain tets and pending tets) having all of `verts` as corners. A pending
   // tet's pieces may split its faces, so pending tets are matched by their corners. False when
   // the edge or face is already cut or lies inside a pending tet (a crossing there is ignored:
   // the blade crossed it twice).
   out->clear();
-  std::unordered_set<int> seen;
+  std::vector<int>& seen = seen_scratch_;  // pending tets taken
+  seen.clear();
   for (int t : mesh_->vertexTets(verts[0])) {
     const TetVerts& tv = mesh_->tet(t);
     bool fine_holds = true;
@@ -447,7 +447,7 @@ bool Cutter::coarseAround(const std::vector<int>& verts, std::vector<Coarse>* ou
       continue;
     }
     const Pending& p = pending_.at(pid);
-    std::vector<int> local;
+    Corners local;
     for (int v : verts) {
       const int i = localIndex(p.cut.corner, v);
       if (i >= 0) local.push_back(i);
@@ -456,7 +456,8 @@ bool Cutter::coarseAround(const std::vector<int>& verts, std::vector<Coarse>* ou
       if (fine_holds) return false;  // a piece's own edge or face, inside the pending tet
       continue;
     }
-    if (!seen.insert(pid).second) continue;
+    if (std::find(seen.begin(), seen.end(), pid) != seen.end()) continue;
+    seen.push_back(pid);
     if (verts.size() == 2 && p.cut.edge_point[tetEdgeIndex(local[0], local[1])] >= 0) return false;
     if (verts.size() == 3 && p.cut.face_point[6 - local[0] - local[1] - local[2]] >= 0)
       return false;
@@ -476,24 +477,26 @@ int Cutter::makePending(int tet) {
   return pid;
 }
 
-bool Cutter::conforming(const std::vector<Coarse>& around, const std::vector<int>& verts) const {
+bool Cutter::conforming(const std::vector<Coarse>& around, const Corners& verts) const {
   // Around one edge or face, a tet the blade left and that is cut again may have as a corner a
   // point that is still only on an edge or face of a pending neighbour: there the neighbour's
   // face is already split more finely on the other side. A second point on such a face is
   // placed alike on both sides (the face rule splits it as the older point did first); a face
   // point, or a third point, could not be, so that crossing is ignored.
-  std::unordered_set<int> points;
+  std::vector<int>& points = points_scratch_;  // (each once or more: only asked whether held)
+  points.clear();
   for (const Coarse& c : around) {
     if (c.pending < 0) continue;
     const TetCut& cut = pending_.at(c.pending).cut;
     for (int v : cut.edge_point)
-      if (v >= 0) points.insert(v);
+      if (v >= 0) points.push_back(v);
     for (int v : cut.face_point)
-      if (v >= 0) points.insert(v);
+      if (v >= 0) points.push_back(v);
   }
   bool finer = false;
   for (const Coarse& c : around)
-    for (int v : cornersOf(c)) finer = finer || points.count(v) > 0;
+    for (int v : cornersOf(c))
+      finer = finer || std::find(points.begin(), points.end(), v) != points.end();
   if (!finer) return true;
   if (verts.size() != 2) return false;
   for (const Coarse& c : around) {
@@ -513,7 +516,7 @@ bool Cutter::conforming(const std::vector<Coarse>& around, const std::vector<int
 }
 
 void Cutter::registerEdgePoint(int a, int b, double s, ChangeRecord* change) {
-  std::vector<Coarse> around;
+  std::vector<Coarse>& around = around_;
   if (!coarseAround({a, b}, &around)) return;  // already cut here, or inside a pending tet
   if (!conforming(around, {a, b})) return;
   // A point nearer a corner than this would only make a needle: keep it a little inside.
@@ -536,19 +539,20 @@ bool Cutter::faceOnBoundary(const Coarse& c, const std::array<int, 3>& face) con
   }
   // A pending tet's face may be split among its pieces: look at a piece face lying on it.
   const Pending& p = pending_.at(c.pending);
-  std::unordered_set<int> on_face(face.begin(), face.end());
+  InlineVector<int, 6> on_face{face[0], face[1], face[2]};
   int local[3];
   for (int k = 0; k < 3; ++k) local[k] = localIndex(p.cut.corner, face[k]);
   for (int i = 0; i < 3; ++i)
     for (int j = i + 1; j < 3; ++j) {
       const int e = p.cut.edge_point[tetEdgeIndex(local[i], local[j])];
-      if (e >= 0) on_face.insert(e);
+      if (e >= 0) on_face.push_back(e);
     }
   for (int t : p.pieces) {
     const TetVerts& tv = mesh_->tet(t);
     for (int f = 0; f < 4; ++f) {
       bool lies = true;
-      for (int k = 0; k < 3; ++k) lies = lies && on_face.count(tv[kTetFace[f][k]]);
+      for (int k = 0; k < 3 && lies; ++k)
+        lies = std::find(on_face.begin(), on_face.end(), tv[kTetFace[f][k]]) != on_face.end();
       if (lies) return mesh_->neighbor(t, f) < 0;
     }
   }
@@ -557,7 +561,7 @@ bool Cutter::faceOnBoundary(const Coarse& c, const std::array<int, 3>& face) con
 
 void Cutter::registerFacePoint(const std::array<int, 3>& face, const Vec3& weights,
                                ChangeRecord* change) {
-  std::vector<Coarse> around;
+  std::vector<Coarse>& around = around_;
   if (!coarseAround({face[0], face[1], face[2]}, &around)) return;
   // Both sides must take the point, or neither: a side already cut and replaced (its face split
   // into smaller faces) cannot, so the crossing is ignored there.
@@ -1217,7 +1221,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   lo.array() -= snap_distance_;
   hi.array() += snap_distance_;
   sweepQuery(from, to, lo, hi, &near_scratch_);
-  const std::vector<Coarse> near = coarseOf(near_scratch_);
+  std::vector<Coarse>& near = sweep_near_;
+  coarseOf(near_scratch_, &near);
   // The fronts of this tick lie in this box (moved by less than the snap distance) and within
   // the sweep's reach: their searches filter these tets, as long as no tet is replaced before
   // (see step()).
@@ -1664,7 +1669,8 @@ void Cutter::crossFront(const std::array<Vec3, 2>& front, const Vec3& inward,
   seg[0] += shift;
   seg[1] += shift;
   Vec3 lo = seg[0].cwiseMin(seg[1]), hi = seg[0].cwiseMax(seg[1]);
-  const std::vector<Coarse> near = coarseNear(lo, hi);
+  std::vector<Coarse>& near = front_near_;
+  coarseNear(lo, hi, &near);
   // The faces in increasing order of their (oriented) triples, each once, as a std::set would
   // give them; the first orientation of a face met in that order is the one taken.
   // Only a face whose box meets the segment's (grown by far more than the crossing test's
