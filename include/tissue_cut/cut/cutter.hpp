@@ -284,7 +284,7 @@ class Cutter {
   /// A crossing at x of the edge or face `verts` lies on an earlier cut in the tets around it.
   /// *standing (if given) is the wound vertex the crossing stands for, or -1 (none, or a wound
   /// edge of a face).
-  bool woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal,
+  bool woundAround(const Vec3& x, const Corners& verts, const Vec3& normal,
                    int* standing = nullptr) const;
   // This stroke's edge crossings dropped because a wound vertex at one end stood for them: the
   // pairs (that vertex, the other end) as pairKey() gives them. A tent split of a tet holding both
@@ -388,6 +388,7 @@ class Cutter {
   std::vector<int> near_scratch_;
   std::vector<Coarse> sweep_near_, front_near_;  // sweep()'s and crossFront()'s coarse tets
   std::vector<Coarse> around_;  // the coarse tets around an edge or face a point is put on
+  std::vector<std::array<int, 3>> front_done_;  // crossFront()'s faces tried (sorted corners)
   mutable std::vector<int> seen_scratch_;    // coarseOf()'s and coarseAround()'s pending tets
   mutable std::vector<int> points_scratch_;  // conforming()'s points
   std::vector<int> refiled_;  // tets the grid filed anew this tick (TetGrid::refresh)

@@ -1692,7 +1692,8 @@ void Cutter::crossFront(const std::array<Vec3, 2>& front, const Vec3& inward,
   }
   std::sort(faces.begin(), faces.end());
   faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-  std::vector<std::array<int, 3>> done;  // few
+  std::vector<std::array<int, 3>>& done = front_done_;  // few
+  done.clear();
   for (const auto& face : faces) {
     const std::array<int, 3> key = sortedFace(face[0], face[1], face[2]);
     if (std::find(done.begin(), done.end(), key) != done.end()) continue;
@@ -1734,7 +1735,7 @@ bool Cutter::woundFacing(int v, const Vec3& normal) const {
   return false;
 }
 
-bool Cutter::woundAround(const Vec3& x, const std::vector<int>& verts, const Vec3& normal,
+bool Cutter::woundAround(const Vec3& x, const Corners& verts, const Vec3& normal,
                          int* standing) const {
   if (standing) *standing = -1;
   // A crossing of an edge or face near one of its vertices, or (a face) near one of its edges,

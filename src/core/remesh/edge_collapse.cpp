@@ -196,8 +196,10 @@ double soundQualityInMesh(const TetMesh& mesh, const TetVerts& tv) {
 }
 
 std::vector<int> foldNeighbours(const TetMesh& mesh, int v) {
-  // Each boundary face at v gives its outward unit normal to its two edges through v.
-  std::vector<std::pair<int, Vec3>> edge_normals;
+  // Each boundary face at v gives its outward unit normal to its two edges through v (a list
+  // kept a thread: a collapse asks this for each end).
+  thread_local std::vector<std::pair<int, Vec3>> edge_normals;
+  edge_normals.clear();
   for (int t : mesh.vertexTets(v)) {
     const TetVerts& tv = mesh.tet(t);
     for (int f = 0; f < 4; ++f) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "tissue_cut/mesh/inline_vector.hpp"
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
 
@@ -82,7 +83,7 @@ Vec3 project(VertexFreedom freedom, const Vec3& dir, const Vec3& from, const Vec
 }  // namespace
 
 VertexFreedom vertexFreedom(const TetMesh& mesh, int v, Vec3* direction) {
-  std::vector<Vec3> planes;
+  InlineVector<Vec3, 3> planes;  // a third one pins v
   for (int t : mesh.vertexTets(v)) {
     const TetVerts& tv = mesh.tet(t);
     const int i = localIndex(tv, v);
