@@ -16,6 +16,9 @@ namespace {
 
 using FaceKey = std::array<int, 3>;
 
+// The room a new vertex's list of tets starts with.
+constexpr std::size_t kNewStarRoom = 16;
+
 bool contains(const TetVerts& t, int v) {
   return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v);
 }
@@ -385,6 +388,8 @@ int TetMesh::addVertex(const std::vector<VertexParent>& parents, ChangeRecord* r
   velocity_[v] = u;
   vertex_alive_[v] = 1;
   vertex_tets_[v].clear();
+  // Room for a cut vertex's star at once (10-20 tets), not grown by doubling from one.
+  vertex_tets_[v].reserve(kNewStarRoom);
   ++num_vertices_;
   if (record) {
     record->added_vertices.push_back(v);

@@ -12,6 +12,9 @@ namespace tissue_cut {
 
 namespace {
 
+// The room a new vertex's lists of springs start with.
+constexpr std::size_t kNewListRoom = 8;
+
 // k x for a symmetric block k = (xx, xy, xz, yy, yz, zz).
 template <class Sym>
 Vec3 apply(const Sym& k, const Vec3& x) {
@@ -238,6 +241,10 @@ void MassSpring::setSpring(int a, int b, double volume) {
     repack_from_ = std::min(repack_from_, static_cast<int>(springs_.size()));
     growSlots(&springs_from_, s.a + 1);
     growSlots(&springs_to_, s.b + 1);
+    // A new vertex's lists start with room for its springs (7 each way on average), not grown
+    // by doubling from one.
+    for (std::vector<SpringRef>* list : {&springs_from_[s.a], &springs_to_[s.b]})
+      if (list->capacity() == 0) list->reserve(kNewListRoom);
     springs_from_[s.a].push_back({s.b, static_cast<int>(springs_.size())});
     springs_to_[s.b].push_back({s.a, static_cast<int>(springs_.size())});
     springs_.push_back(s);
