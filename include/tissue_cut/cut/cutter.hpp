@@ -198,11 +198,12 @@ class Cutter {
   /// replace() of `tets` by themselves with v renamed `copy` (TetMesh::renameVertex).
   bool splitOff(const std::vector<int>& tets, int v, int copy, ChangeRecord* change,
                 std::vector<int>* ids);
-  /// Makes a change by `make` (which fills the record it is given, or throws std::logic_error
-  /// with the mesh unchanged) and follows it; false when refused.
-  bool changeMesh(const std::vector<int>& remove,
-                  const std::function<std::vector<int>(ChangeRecord*)>& make,
-                  ChangeRecord* change, std::vector<int>* ids);
+  /// Makes a change by `make` (std::vector<int>(ChangeRecord*): fills the record it is given, or
+  /// throws std::logic_error with the mesh unchanged) and follows it; false when refused. (A
+  /// template: as a std::function, the callers' lambdas were too big to be held in place.)
+  template <typename Make>
+  bool changeMesh(const std::vector<int>& remove, const Make& make, ChangeRecord* change,
+                  std::vector<int>* ids);
   void refreshGrid(const ChangeRecord& change);
   /// changeMesh()'s record, emptied before each use.
   ChangeRecord mesh_change_;

@@ -330,23 +330,9 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
   }
 }
 
-bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
-                     ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids) {
-  return changeMesh(
-      remove, [&](ChangeRecord* local) { return mesh_->replaceTets(remove, add, local, from); },
-      change, ids);
-}
-
-bool Cutter::splitOff(const std::vector<int>& tets, int v, int copy, ChangeRecord* change,
-                      std::vector<int>* ids) {
-  return changeMesh(
-      tets, [&](ChangeRecord* local) { return mesh_->renameVertex(tets, v, copy, local); }, change,
-      ids);
-}
-
-bool Cutter::changeMesh(const std::vector<int>& remove,
-                        const std::function<std::vector<int>(ChangeRecord*)>& make,
-                        ChangeRecord* change, std::vector<int>* ids) {
+template <typename Make>
+bool Cutter::changeMesh(const std::vector<int>& remove, const Make& make, ChangeRecord* change,
+                        std::vector<int>* ids) {
   ChangeRecord& local = mesh_change_;  // (make() changes only the mesh: never nested)
   local.clear();
   std::vector<int> added;
@@ -366,6 +352,20 @@ bool Cutter::changeMesh(const std::vector<int>& remove,
   change->append(local);
   if (ids) *ids = std::move(added);
   return true;
+}
+
+bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
+                     ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids) {
+  return changeMesh(
+      remove, [&](ChangeRecord* local) { return mesh_->replaceTets(remove, add, local, from); },
+      change, ids);
+}
+
+bool Cutter::splitOff(const std::vector<int>& tets, int v, int copy, ChangeRecord* change,
+                      std::vector<int>* ids) {
+  return changeMesh(
+      tets, [&](ChangeRecord* local) { return mesh_->renameVertex(tets, v, copy, local); }, change,
+      ids);
 }
 
 void Cutter::noteChanged(const ChangeRecord& change) {
