@@ -127,9 +127,11 @@ class CollapseQueue {
   bool flipBest(int t, const std::function<bool(int)>& busy,
                 const std::function<bool(int)>& created_by_cut, ChangeRecord* change);
   // Smooths the first vertex of tv that can be; stops (setting *stopped) before trying another
-  // vertex once `stop` says so.
+  // vertex once `stop` (bool()) says so. (A template: as a std::function, process()'s lambda was
+  // too big to be held in place.)
+  template <typename Stop>
   bool smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
-                 ChangeRecord* change, const std::function<bool()>& stop, bool* stopped);
+                 ChangeRecord* change, const Stop& stop, bool* stopped);
   static long long keyOf(int a, int b);
   bool alreadyRefused(int a, int b) const;
   void refused(int a, int b);

@@ -342,9 +342,9 @@ void CollapseQueue::moveGhosts(int removed, int survivor) {
   ghosts_.erase(it);
 }
 
+template <typename Stop>
 bool CollapseQueue::smoothAny(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
-                              ChangeRecord* change, const std::function<bool()>& stop,
-                              bool* stopped) {
+                              ChangeRecord* change, const Stop& stop, bool* stopped) {
   growSlots(&moves_, mesh_->vertexSlots(), {});
   for (int v : tv) {
     if ((pinned_ && pinned_(v)) || moves_[v] >= kMaxMoves || alreadyRefused(v, -1)) continue;
