@@ -437,6 +437,13 @@ class Cutter {
   // final splits touched, the pending tets the blade left.
   std::vector<int> final_ids_, final_touched_, left_;
   std::vector<int> separate_before_, separate_after_;  // separate()'s waiting lists, likewise
+  // separate()'s for one vertex split off: its groups of tets, the record of a group's split, the
+  // group sorted, the cut faces it holds, the pending tets it holds and one of those's pieces.
+  std::vector<std::vector<int>> separate_groups_;
+  ChangeRecord separate_change_;
+  std::vector<int> in_group_;
+  std::vector<std::pair<std::array<int, 3>, bool>> separate_marks_;
+  std::vector<int> separate_pendings_, separate_pieces_;
   std::vector<unsigned> region_stamp_, check_stamp_;
   unsigned region_call_ = 0, check_call_ = 0;
   std::vector<unsigned char> split_state_;

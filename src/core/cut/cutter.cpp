@@ -1139,10 +1139,11 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
       continue;
     }
     // The groups as vectors: replace() takes the tets it removes (and renames) as one.
-    std::vector<std::vector<int>> groups;
+    std::vector<std::vector<int>>& groups = separate_groups_;
+    groups.resize(group_start_.size() - 1);
     for (std::size_t k = 0; k + 1 < group_start_.size(); ++k)
-      groups.emplace_back(group_tets_.begin() + group_start_[k],
-                          group_tets_.begin() + group_start_[k + 1]);
+      groups[k].assign(group_tets_.begin() + group_start_[k],
+                       group_tets_.begin() + group_start_[k + 1]);
     // The group holding a pending tet's pieces keeps the vertex, so pending state stays as is.
     std::size_t keep = 0;
     for (std::size_t k = 0; k < groups.size(); ++k)
@@ -1152,11 +1153,16 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
       if (k == keep) continue;
       const std::vector<int>& tets = groups[k];
       keptStale(tets);  // renamed below, or their marks opened for good
-      ChangeRecord local;
+      ChangeRecord& local = separate_change_;
+      local.clear();
       const int copy = mesh_->addVertex({{v, 1.0}}, &local);
-      std::set<int> in_group(tets.begin(), tets.end());
+      std::vector<int>& in_group = in_group_;  // sorted
+      in_group.assign(tets.begin(), tets.end());
+      std::sort(in_group.begin(), in_group.end());
+      auto inGroup = [&](int t) { return std::binary_search(in_group.begin(), in_group.end(), t); };
       // Cut faces between two tets of this group move to the copy; the others open.
-      std::vector<std::pair<std::array<int, 3>, bool>> marks;  // face, moves to the copy
+      std::vector<std::pair<std::array<int, 3>, bool>>& marks = separate_marks_;
+      marks.clear();  // face, moves to the copy
       for (int t : tets) {
         const TetVerts& tv = mesh_->tet(t);
         for (int f = 0; f < 4; ++f) {
@@ -1164,12 +1170,15 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
           const auto key = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
           if (!marked_.count(key)) continue;
           const int u = mesh_->neighbor(t, f);
-          marks.emplace_back(key, u >= 0 && in_group.count(u) > 0);
+          marks.emplace_back(key, u >= 0 && inGroup(u));
         }
       }
-      std::set<int> pendings;
+      std::vector<int>& pendings = separate_pendings_;  // ascending, each once
+      pendings.clear();
       for (int t : tets)
-        if (pending_of_[t] >= 0) pendings.insert(pending_of_[t]);
+        if (pending_of_[t] >= 0) pendings.push_back(pending_of_[t]);
+      std::sort(pendings.begin(), pendings.end());
+      pendings.erase(std::unique(pendings.begin(), pendings.end()), pendings.end());
       std::vector<int> ids;
       if (!splitOff(tets, v, copy, &local, &ids)) {
         // Refused: no copy; the faces that would have opened here stay closed for good.
@@ -1196,9 +1205,10 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
         Pending& p = pending_[pid];
         renameIn(&p.cut, v, copy);
         if (p.steiner == v) p.steiner = copy;
-        std::vector<int> pieces;
+        std::vector<int>& pieces = separate_pieces_;
+        pieces.clear();
         for (int t : p.pieces)
-          if (!in_group.count(t)) pieces.push_back(t);
+          if (!inGroup(t)) pieces.push_back(t);
         for (std::size_t j = 0; j < tets.size(); ++j)
           if (std::find(p.pieces.begin(), p.pieces.end(), tets[j]) != p.pieces.end())
             pieces.push_back(ids[j]);
