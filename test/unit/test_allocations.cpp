@@ -4,11 +4,14 @@
 // counts.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "heap_count.hpp"
+#include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/cut/split_table.hpp"
 #include "tissue_cut/tissue.hpp"
 
@@ -162,4 +165,38 @@ TEST(Allocations, ComposingIntoARecordWithRoomAllocatesNothing) {
     EXPECT_EQ(tick.added_tets.size(), static_cast<std::size_t>(n));  // n / 2 kept, n / 2 new
     for (int from : tick.added_from) EXPECT_EQ(from, -1);            // new elements, all of them
   }
+}
+
+// A cutting stroke takes little from the heap for each tet it cuts: the block's incision
+// without physics, collapses unbounded (the same work on any machine), counts 71 allocations a
+// cut tet here, the first ticks' sizing of the buffers included (session 48: the split table's
+// lists, the change records, the cutter's lists of coarse tets and separate()'s, and
+// std::functions too big for their own room had made about 300; cut_replay counts 276 -> 49 for
+// the same stroke). Still allocating: the new tets' and vertices' lists, the replacements' own
+// lists, the table of refused collapses.
+TEST(Allocations, ACuttingStrokeAllocatesLittleForEachTetItCuts) {
+  Config config;
+  config.physics.enabled = false;
+  config.collapse.budget_us = 0.0;
+  Tissue tissue(config, loadTissueMesh(config));
+  const ScalpelPath path =
+      ScalpelPath::read(std::string(TISSUE_CUT_SOURCE_DIR) + "/meshes/paths/incision_block.csv");
+  const double dt = 1.0 / config.rate;
+  const long ticks = std::lround((path.endTime() - path.startTime()) / dt);
+  long long allocations = 0;
+  for (long k = 0; k <= ticks + 1; ++k) {
+    std::optional<BladeSegment> blade;
+    if (k <= ticks) {
+      const ToolPose p = path.at(path.startTime() + k * dt);
+      blade = bladeFromPose(p.position, p.orientation, config.cut.blade_length);
+    }
+    allocations += allocationsOver(&tissue, 1, blade);
+  }
+  ASSERT_EQ(tissue.validate(), "");
+  const int cut = tissue.cutter().counts().cut_tetrahedra;
+  EXPECT_GT(cut, 300);
+  EXPECT_GT(tissue.statistics().collapse.collapsed_edges, 100);
+  std::printf("%lld allocations, %d cut tets: %.1f a cut tet\n", allocations, cut,
+              static_cast<double>(allocations) / cut);
+  EXPECT_LT(allocations, 100LL * cut);
 }
