@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <random>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <unordered_map>
 
 #include "tissue_cut/mesh/block.hpp"
+#include "tissue_cut/mesh/inline_vector.hpp"
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/mesh/stamped_table.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -129,6 +131,25 @@ TEST(StampedTable, AnswersAsAMapThroughPassesAndGrowth) {
     }
     last = map;
   }
+}
+
+// The in-place lists of a split: filled to their capacity, and never past it (a list that grew
+// past its room would write over whatever follows it).
+TEST(InlineVector, HoldsUpToItsCapacityAndRefusesMore) {
+  InlineVector<int, 3> v{4, 5};
+  EXPECT_EQ(v.size(), 2u);
+  v.push_back(6);
+  EXPECT_EQ(std::vector<int>(v.begin(), v.end()), (std::vector<int>{4, 5, 6}));
+  EXPECT_THROW(v.push_back(7), std::length_error);
+  EXPECT_EQ(v.size(), 3u);
+  EXPECT_EQ(v.back(), 6);
+  const InlineVector<int, 3> copy = v;  // a copy holds its own items
+  v[0] = 9;
+  EXPECT_EQ(copy[0], 4);
+  v.clear();
+  EXPECT_TRUE(v.empty());
+  EXPECT_EQ(copy.size(), 3u);
+  EXPECT_THROW((InlineVector<int, 1>{1, 2}), std::length_error);
 }
 
 TEST(TetMesh, AdjacencyAndBoundaryOfTwoGluedTets) {
