@@ -22,6 +22,7 @@ class InlineVector {
     if (size_ == N) throw std::length_error("InlineVector: more than its capacity");
     items_[size_++] = x;
   }
+  void pop_back() { --size_; }
   void clear() { size_ = 0; }
   std::size_t size() const { return size_; }
   bool empty() const { return size_ == 0; }

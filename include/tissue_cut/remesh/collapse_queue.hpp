@@ -172,6 +172,9 @@ class CollapseQueue {
   std::vector<int> around_scratch_;  // touched()'s: the vertices of a star
   // A collapse's, flip's or move's record, emptied before each use.
   ChangeRecord step_change_;
+  // flipBest()'s: the candidate tried, the best so far, the flip's vertices (kept for their room).
+  FlipCandidate flip_candidate_, flip_best_;
+  std::vector<int> flip_verts_;
   // Where the cut left the surface: the rest positions of boundary vertices collapsed away, each
   // kept by the vertex that took its place. Collapses and 2-2 flips keep every such point within
   // shape_tolerance_ * length_floor_ of the surface around the vertex holding it, so the surface

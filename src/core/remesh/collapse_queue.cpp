@@ -186,7 +186,7 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
     }
     return true;
   };
-  FlipCandidate best, candidate;
+  FlipCandidate &best = flip_best_, &candidate = flip_candidate_;
   bool found = false;
   auto consider = [&](bool legal) {
     if (!legal || !allowed(candidate)) return;
@@ -213,7 +213,8 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
       static_cast<int>(best.removed.size()) - static_cast<int>(best.added.size());
   change->append(local);
   // Their vertices once each, in increasing order (touched() uses around_scratch_ itself).
-  std::vector<int> verts;
+  std::vector<int>& verts = flip_verts_;
+  verts.clear();
   for (int a : added)
     for (int v : mesh_->tet(a)) verts.push_back(v);
   std::sort(verts.begin(), verts.end());

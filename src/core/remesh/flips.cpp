@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 
+#include "tissue_cut/mesh/inline_vector.hpp"
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
 #include "tissue_cut/remesh/link_condition.hpp"
@@ -22,6 +23,17 @@ bool finish(const TetMesh& mesh, double min_gain, FlipCandidate* c) {
   return c->worst_after >= c->worst_before + min_gain;
 }
 
+// A candidate being made, one a thread: its lists keep their room from one try to the next (the
+// queue tries up to 16 flips on each tet it works), and `out` takes a copy, into lists with
+// room of their own, only when the flip is found.
+FlipCandidate& freshCandidate() {
+  thread_local FlipCandidate cand;
+  cand.removed.clear();
+  cand.added.clear();
+  cand.worst_before = cand.worst_after = cand.volume_change = 0.0;
+  return cand;
+}
+
 }  // namespace
 
 bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* out,
@@ -35,14 +47,14 @@ bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* o
     if (v != a && v != b && v != c) e = v;
   if (e < 0 || mesh.hasEdge(d, e)) return false;  // de exists: a flip would fold
   if (may_join && !may_join(d, e)) return false;
-  FlipCandidate cand;
-  cand.removed = {t, u};
+  FlipCandidate& cand = freshCandidate();
+  cand.removed.assign({t, u});
   cand.worst_before = std::min(restQuality(mesh, t), restQuality(mesh, u));
   // kTetFace orders abc outward of t: d lies below it, e above. Each new tet is one edge of abc
   // with d and e, ordered like (a, b, d, e), which is positive when de crosses abc's inside.
-  cand.added = {{a, b, d, e}, {b, c, d, e}, {c, a, d, e}};
+  cand.added.assign({{a, b, d, e}, {b, c, d, e}, {c, a, d, e}});
   if (!finish(mesh, min_gain, &cand)) return false;
-  *out = std::move(cand);
+  *out = cand;
   return true;
 }
 
@@ -145,10 +157,11 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
       }
     }
   if (!(best[0][n - 1] >= needed)) return false;
-  FlipCandidate cand;
+  FlipCandidate& cand = freshCandidate();
   cand.removed.assign(ring_tets.begin(), ring_tets.begin() + n);
   cand.worst_before = worst_before;
-  std::vector<std::array<int, 2>> todo = {{0, n - 1}};
+  InlineVector<std::array<int, 2>, 2 * kMaxEdgeRing> todo;  // (n - 2 splits at most)
+  todo.push_back({0, n - 1});
   while (!todo.empty()) {
     const auto [i, j] = todo.back();
     todo.pop_back();
@@ -160,7 +173,7 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
     todo.push_back({k, j});
   }
   if (!finish(mesh, min_gain, &cand)) return false;
-  *out = std::move(cand);
+  *out = cand;
   return true;
 }
 
@@ -198,7 +211,7 @@ bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double mi
   if (nc.dot(px - pa) > 0) nc = -nc;
   if (nd.dot(px - pa) > 0) nd = -nd;
   if (!(nc.dot(nd) > 0)) return false;
-  FlipCandidate cand;
+  FlipCandidate& cand = freshCandidate();
   cand.removed.assign(pair_tets.begin(), pair_tets.end());
   cand.worst_before = std::min(restQuality(mesh, pair_tets[0]), restQuality(mesh, pair_tets[1]));
   // Orient cdx so that a lies on its positive side; b then lies on the other.
@@ -207,14 +220,14 @@ bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double mi
     first = {c, x, d, a};
     second = {c, d, x, b};
   }
-  cand.added = {first, second};
+  cand.added.assign({first, second});
   if (!finish(mesh, min_gain, &cand)) return false;
   double before = 0.0, after = 0.0;
   for (int t : pair_tets) before += mesh.restVolume(t);
   for (const TetVerts& tv : cand.added)
     after += signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
   cand.volume_change = after - before;
-  *out = std::move(cand);
+  *out = cand;
   return true;
 }
 
