@@ -14,6 +14,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "tissue_cut/mesh/stamped_table.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
 #include "tissue_cut/remesh/flips.hpp"
@@ -166,7 +167,9 @@ class CollapseQueue {
   std::optional<Entry> resume_;
   std::vector<long long> vertex_stamp_;               // bumped when a vertex's star changes
   std::vector<Entry> waiting_;                        // busy this tick, back in the heap next tick
-  std::unordered_map<long long, long long> refused_;  // edge or vertex -> its stamp when refused
+  // Edge or vertex (keyOf()) -> its stamp when refused: one pass of the table, begun by clear()
+  // (open addressing: a refusal noted takes nothing from the heap, but when the table grows).
+  StampedTable<long long> refused_;
   std::vector<std::pair<TetVerts, long long>> queued_;  // per tet slot: the entry in the heap
   std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
   std::vector<int> around_scratch_;  // touched()'s: the vertices of a star

@@ -41,7 +41,7 @@ void CollapseQueue::clear() {
   waiting_.clear();
   vertex_stamp_.clear();
   moves_.clear();
-  refused_.clear();
+  refused_.begin();
   queued_.clear();
   volume_changed_ = 0.0;
   ghosts_.clear();
@@ -112,11 +112,13 @@ long long CollapseQueue::keyOf(int a, int b) {
 }
 
 bool CollapseQueue::alreadyRefused(int a, int b) const {
-  const auto it = refused_.find(keyOf(a, b));
-  return it != refused_.end() && it->second == stampOf(a, b < 0 ? a : b);
+  const auto key = static_cast<std::uint64_t>(keyOf(a, b));
+  return refused_.contains(key) && refused_.at(key) == stampOf(a, b < 0 ? a : b);
 }
 
-void CollapseQueue::refused(int a, int b) { refused_[keyOf(a, b)] = stampOf(a, b < 0 ? a : b); }
+void CollapseQueue::refused(int a, int b) {
+  refused_.put(static_cast<std::uint64_t>(keyOf(a, b)), stampOf(a, b < 0 ? a : b));
+}
 
 bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(int)>& created_by_cut,
                                  ChangeRecord* change) {
