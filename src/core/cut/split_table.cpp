@@ -263,7 +263,7 @@ bool splitPartial(const TetCut& cut, const Checker& check, TetSplit* out) {
   };
   InlineVector<int, 6> path;
   bool found = edges.empty();
-  std::sort(edges.begin(), edges.end());
+  // (edges is ascending as made, so next_permutation goes through every order)
   if (!found) do {
       if (!onFace(edges[0], F1) || !onFace(edges.back(), F2)) continue;
       int used = (1 << F1) | (1 << F2);  // faces, as bits
