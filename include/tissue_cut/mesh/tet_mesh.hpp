@@ -252,6 +252,8 @@ class TetMesh {
   std::vector<unsigned> removing_;
   unsigned removing_stamp_ = 0;
   std::vector<std::array<int, 3>> face_scratch_;
+  std::vector<int> merge_old_, merge_from_;  // mergeVertices()'s star and the tets moved
+  std::vector<TetVerts> merge_moved_;
   // restack()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
   std::vector<int> move_place_, move_vertices_;
   std::vector<TetVerts> move_tets_;

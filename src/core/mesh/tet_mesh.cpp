@@ -662,9 +662,13 @@ void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecor
 void TetMesh::mergeVertices(int removed, int survivor, ChangeRecord* record) {
   if (removed == survivor || !vertex_alive_[removed] || !vertex_alive_[survivor])
     throw std::logic_error("TetMesh::mergeVertices: needs two distinct live vertices");
-  std::vector<int> old = vertex_tets_[removed];
-  std::vector<TetVerts> moved;
-  std::vector<int> from;
+  // (member lists, kept for their room: a collapse queue merges vertices by the hundred)
+  std::vector<int>& old = merge_old_;
+  old = vertex_tets_[removed];  // a copy: replaceTets() changes the star
+  std::vector<TetVerts>& moved = merge_moved_;
+  moved.clear();
+  std::vector<int>& from = merge_from_;
+  from.clear();
   for (int t : old) {
     TetVerts tv = tets_[t];
     if (contains(tv, survivor)) continue;
