@@ -168,12 +168,12 @@ TEST(Allocations, ComposingIntoARecordWithRoomAllocatesNothing) {
 }
 
 // A cutting stroke takes little from the heap for each tet it cuts: the block's incision
-// without physics, collapses unbounded (the same work on any machine), counts 71 allocations a
+// without physics, collapses unbounded (the same work on any machine), counts 44 allocations a
 // cut tet here, the first ticks' sizing of the buffers included (session 48: the split table's
-// lists, the change records, the cutter's lists of coarse tets and separate()'s, and
-// std::functions too big for their own room had made about 300; cut_replay counts 276 -> 49 for
-// the same stroke). Still allocating: the new tets' and vertices' lists, the replacements' own
-// lists, the table of refused collapses.
+// lists, the change records, the cutter's lists of coarse tets and separate()'s, flip candidates,
+// refused collapses' hash nodes and std::functions too big for their own room had made about
+// 300; cut_replay counts 276 -> 31 for the same stroke). Still allocating: the new tets' and
+// vertices' lists, the replacements' own result lists.
 TEST(Allocations, ACuttingStrokeAllocatesLittleForEachTetItCuts) {
   Config config;
   config.physics.enabled = false;
