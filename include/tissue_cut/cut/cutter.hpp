@@ -205,8 +205,6 @@ class Cutter {
   bool changeMesh(const std::vector<int>& remove, const Make& make, ChangeRecord* change,
                   std::vector<int>* ids);
   void refreshGrid(const ChangeRecord& change);
-  /// changeMesh()'s record, emptied before each use.
-  ChangeRecord mesh_change_;
   /// Tets just filed (anew) that the grid could return for a box inside the cached one join it.
   void joinNearCache(const std::vector<int>& tets);
   void rebuildGrid();
@@ -392,6 +390,7 @@ class Cutter {
   std::vector<std::array<int, 3>> front_done_;  // crossFront()'s faces tried (sorted corners)
   mutable std::vector<int> seen_scratch_;    // coarseOf()'s and coarseAround()'s pending tets
   mutable std::vector<int> points_scratch_;  // conforming()'s points
+  ChangeRecord mesh_change_;                 // changeMesh()'s record, emptied before each use
   std::vector<int> refiled_;  // tets the grid filed anew this tick (TetGrid::refresh)
   std::vector<int> update_refiled_;  // and with a change (TetGrid::update)
   double moved_ = 0.0;        // how far vertices may have moved since the grid's last refresh

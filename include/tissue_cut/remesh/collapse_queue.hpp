@@ -167,8 +167,9 @@ class CollapseQueue {
   std::optional<Entry> resume_;
   std::vector<long long> vertex_stamp_;               // bumped when a vertex's star changes
   std::vector<Entry> waiting_;                        // busy this tick, back in the heap next tick
-  // Edge or vertex (keyOf()) -> its stamp when refused: one pass of the table, begun by clear()
-  // (open addressing: a refusal noted takes nothing from the heap, but when the table grows).
+  // Edge or vertex (keyOf()) -> its stamp when refused, in one pass of the table until clear()
+  // begins another (open addressing: a refusal takes nothing from the heap unless the table
+  // grows).
   StampedTable<long long> refused_;
   std::vector<std::pair<TetVerts, long long>> queued_;  // per tet slot: the entry in the heap
   std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)

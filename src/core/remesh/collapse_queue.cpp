@@ -7,8 +7,8 @@
 #include <set>
 
 #include "tissue_cut/mesh/quality.hpp"
-#include "tissue_cut/remesh/vertex_smoothing.hpp"
 #include "tissue_cut/statistics.hpp"
+#include "tissue_cut/remesh/vertex_smoothing.hpp"
 
 namespace tissue_cut {
 
@@ -336,7 +336,8 @@ bool CollapseQueue::ghostsKept(const FlipCandidate& flip) const {
 }
 
 void CollapseQueue::moveGhosts(int removed, int survivor) {
-  if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0 || !isBoundaryVertex(*mesh_, removed)) return;
+  if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0 || !isBoundaryVertex(*mesh_, removed))
+    return;
   std::vector<Vec3>& kept = ghosts_[survivor];
   kept.push_back(mesh_->rest(removed));
   const auto it = ghosts_.find(removed);
