@@ -18,6 +18,9 @@ prints the medians over --repeats runs of each:
                           log: the cutter on the ticks that replace no tet (following the blade,
                           and opening the cut where that waited), the cutter on the ticks that
                           replace tets, and the collapse queue
+  paper's collapse        us/cut tet of the same run with collapse/flips and collapse/smoothing
+                          off (the queue only collapses edges, as the paper's does), beside the
+                          region's mean Q in both runs: what our extensions cost and buy
   4x ratio                us/cut tet of the 80k mesh over that of the 20k mesh (the medians'
                           ratio, and the median and range of each repeat's own ratio; a
                           repeat replays every size in turn, so the sizes' runs alternate)
@@ -198,6 +201,9 @@ def main():
     config = os.path.join(out, 'bench.yaml')
     with open(config, 'w') as f:
         f.write(CONFIG)
+    paper_config = os.path.join(out, 'bench_paper.yaml')
+    with open(paper_config, 'w') as f:
+        f.write(CONFIG + 'collapse:\n  flips: false\n  smoothing: false\n')
     threaded = {}
     for t in a.threads:
         threaded[t] = os.path.join(out, 'bench_threads%d.yaml' % t)
@@ -216,6 +222,7 @@ def main():
     # came minutes after the 20k ones: once 1.60 where the runs before and after gave 1.30).
     full = {n: {t: [] for t in a.threads} for n in a.sizes}
     plain = {n: [] for n in a.sizes}
+    paper = {n: [] for n in a.sizes}
     chosen = []  # --cpu auto: (vCPU, its and the other's step [us]) for each pinned replay
 
     def where():
@@ -231,6 +238,9 @@ def main():
             plain[n].append(replay(a.build, mesh, path, config,
                                    os.path.join(out, 'plain%d_%d.json' % (n, k)), False,
                                    os.path.join(out, 'plain%d_%d_ticks.csv' % (n, k)), where()))
+            paper[n].append(replay(a.build, mesh, path, paper_config,
+                                   os.path.join(out, 'paper%d_%d.json' % (n, k)), False,
+                                   cpu=where()))
     for n in a.sizes:
         for t in a.threads:
             runs = full[n][t]
@@ -267,6 +277,9 @@ def main():
                                     max(1, s['cut']['cut_tetrahedra']) for s in plain[n]]),
             'ec_per_cut': median([s['collapse']['time_ms'] * 1000.0 /
                                   max(1, s['cut']['cut_tetrahedra']) for s in plain[n]]),
+            'q_plain': median([s['region']['quality_mean'] for s in plain[n]]),
+            'us_paper': median([us_per_cut(s) for s in paper[n]]),
+            'q_paper': median([s['region']['quality_mean'] for s in paper[n]]),
         })
     check_after = machine_check(a.build, a.cpu)
     print('machine: %s, %d cores, %s; %d runs each, medians' %
@@ -297,13 +310,15 @@ def main():
     print('Without physics (collapse on):')
     print('| tets | cut tets | t.Repl ms | t.EC ms | us per cut tet (t.Repl + t.EC) | '
           'split: cutter on ticks replacing none + on ticks replacing + collapse | '
-          'us per cut tet (CPU of all ticks) | tick p99 ms (wall) |')
-    print('|---|---|---|---|---|---|---|---|')
+          'us per cut tet (CPU of all ticks) | tick p99 ms (wall) | region mean Q | '
+          'paper\'s collapse alone: us per cut tet, region mean Q |')
+    print('|---|---|---|---|---|---|---|---|---|---|')
     for r in rows:
-        print('| %d | %d | %.1f | %.1f | %.0f | %.0f + %.0f + %.0f | %.0f | %.2f |' %
+        print('| %d | %d | %.1f | %.1f | %.0f | %.0f + %.0f + %.0f | %.0f | %.2f | %.3f | '
+              '%.0f, %.3f |' %
               (r['tets'], r['cut_plain'], r['repl_ms'], r['ec_ms'], r['us_per_cut'],
                r['idle_per_cut'], r['busy_per_cut'], r['ec_per_cut'], r['cpu_per_cut'],
-               r['p99_plain']))
+               r['p99_plain'], r['q_plain'], r['us_paper'], r['q_paper']))
     by_size = dict(zip(a.sizes, rows))
     if 20000 in by_size and 80000 in by_size:
         # Also each repeat's 80k run over its 20k run, taken one after the other.

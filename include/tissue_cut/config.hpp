@@ -53,6 +53,12 @@ struct Config {
     /// of budget every fourth such tick; where it takes the whole period, its budget every tick.
     /// 0: the budget alone, before the physics step, as also while budget_us is 0 (unbounded).
     double deadline = 0.9;
+    /// Our extensions to the paper's collapse, each on by default: when no edge of a queued tet
+    /// may collapse, the best flip among tets made by cuts (2-3, edge removal, 2-2), and else a
+    /// move of one of its vertices. Both off: the paper's collapse alone (less work per tet,
+    /// lower quality behind the cut).
+    bool flips = true;
+    bool smoothing = true;
   } collapse;
 
   struct Physics {

@@ -55,9 +55,9 @@ class Tissue {
   /// Back to the mesh given at construction, uncut and at rest.
   void reset();
 
-  /// Applies a changed configuration between ticks: collapse (enabled, tau, budget), the cut's
-  /// blade length, max jump and blade filter, and the physics material (enabled, integrator,
-  /// density, Young's modulus, damping, gravity). Keys that need the model rebuilt (mesh,
+  /// Applies a changed configuration between ticks: collapse (enabled, tau, budget, deadline,
+  /// flips, smoothing), the cut's blade length, max jump and blade filter, and the physics
+  /// material (enabled, integrator, density, Young's modulus, damping, gravity). Keys that need the model rebuilt (mesh,
   /// mesh_max_tets, block_cell_size, physics/fixed_*) must be unchanged. Returns "" when applied,
   /// else the first key that is invalid or cannot change live; the model is then left as it was.
   std::string reconfigure(const Config& config);
@@ -78,6 +78,8 @@ class Tissue {
 
  private:
   void applyChange(const ChangeRecord& change);
+  // The collapse queue's flips and smoothing as the config says (Config::Collapse).
+  void setCollapseExtensions(const Config& c);
   bool createdByCut(int t) const {
     return t < static_cast<int>(cut_region_.size()) && cut_region_[t];
   }

@@ -94,12 +94,7 @@ void Tissue::reset() {
   if (clock_) collapse_->setBudgetClock(clock_);
   collapse_->setShapeTolerance(kShapeTolerance, kVolumeBudget * mesh_.restVolume(),
                                kShapeLengthFloor * cutter_->meanEdge());
-  // Vertices the physics holds still keep their place.
-  collapse_->setSmoothing(true, [this](int v) { return physics_->fixed(v); });
-  // The cutter knows a blade coming back along a wound by the wound vertices at the ends of the
-  // edges it crosses; flips make only edges it would know so (without this rule, 20 passes
-  // back and forth with physics re-cut 5,100 tets instead of about 400).
-  collapse_->setFlips(true, [this](int u, int v) { return cutter_->mayJoin(u, v); });
+  setCollapseExtensions(config_);
   assignSlots(&cut_region_, mesh_.tetSlots(), {});
   busy_epoch_ = -1;
   physics_steps_ = 0;
@@ -108,6 +103,15 @@ void Tissue::reset() {
   follows_ = 0;  // the new queue starts with no follow cost
   tick_times_.clear();
   initial_volume_ = mesh_.restVolume();
+}
+
+void Tissue::setCollapseExtensions(const Config& c) {
+  // Vertices the physics holds still keep their place.
+  collapse_->setSmoothing(c.collapse.smoothing, [this](int v) { return physics_->fixed(v); });
+  // The cutter knows a blade coming back along a wound by the wound vertices at the ends of the
+  // edges it crosses; flips make only edges it would know so (without this rule, 20 passes
+  // back and forth with physics re-cut 5,100 tets instead of about 400).
+  collapse_->setFlips(c.collapse.flips, [this](int u, int v) { return cutter_->mayJoin(u, v); });
 }
 
 std::string Tissue::reconfigure(const Config& c) {
@@ -125,6 +129,7 @@ std::string Tissue::reconfigure(const Config& c) {
   blade_filter_.setParams(bladeFilterParams(c));
   collapse_->setTau(c.collapse.tau);
   collapse_->setBudget(c.collapse.budget_us);
+  setCollapseExtensions(c);
   physics_->setParams(massSpringParams(c));
   if (c.physics.enabled) physics_->prepare(1.0 / c.rate);
   config_ = c;

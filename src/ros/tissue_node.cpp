@@ -62,6 +62,8 @@ void putModelValues(const Config& c, TissueConfig* r) {
   r->collapse_tau = c.collapse.tau;
   r->collapse_budget_us = c.collapse.budget_us;
   r->collapse_deadline = c.collapse.deadline;
+  r->collapse_flips = c.collapse.flips;
+  r->collapse_smoothing = c.collapse.smoothing;
   r->blade_length = c.cut.blade_length;
   r->blade_filter_min_cutoff = c.cut.filter_min_cutoff;
   r->blade_filter_beta = c.cut.filter_beta;
@@ -78,6 +80,8 @@ Config withReconfigureValues(Config c, const TissueConfig& r) {
   c.collapse.tau = r.collapse_tau;
   c.collapse.budget_us = r.collapse_budget_us;
   c.collapse.deadline = r.collapse_deadline;
+  c.collapse.flips = r.collapse_flips;
+  c.collapse.smoothing = r.collapse_smoothing;
   c.cut.blade_length = r.blade_length;
   c.cut.filter_min_cutoff = r.blade_filter_min_cutoff;
   c.cut.filter_beta = r.blade_filter_beta;

@@ -211,6 +211,33 @@ TEST_F(TissueNodeTest, ReconfigureSetsTheBladeFilterLive) {
   EXPECT_LT(held->cut_tetrahedra, unfiltered->cut_tetrahedra / 3);
 }
 
+// The collapse queue's flips and smoothing (collapse/flips, collapse/smoothing) are live settings
+// too: turned off and on again through dynamic_reconfigure, the node answers with what it took
+// and goes on publishing.
+TEST_F(TissueNodeTest, ReconfigureTurnsTheCollapseExtensionsOffAndOn) {
+  auto set = [](bool on) {
+    dynamic_reconfigure::Reconfigure srv;
+    dynamic_reconfigure::BoolParameter p;
+    p.value = on;
+    for (const char* name : {"collapse_flips", "collapse_smoothing"}) {
+      p.name = name;
+      srv.request.config.bools.push_back(p);
+    }
+    EXPECT_TRUE(ros::service::call(std::string(kNode) + "/set_parameters", srv));
+    std::map<std::string, bool> got;
+    for (const auto& b : srv.response.config.bools) got[b.name] = b.value;
+    return got;
+  };
+  auto got = set(false);
+  EXPECT_EQ(got.count("collapse_flips"), 1u);
+  EXPECT_FALSE(got["collapse_flips"]);
+  EXPECT_FALSE(got["collapse_smoothing"]);
+  EXPECT_TRUE(listener_.nextStats().has_value());
+  got = set(true);
+  EXPECT_TRUE(got["collapse_flips"]);
+  EXPECT_TRUE(got["collapse_smoothing"]);
+}
+
 TEST_F(TissueNodeTest, SaveMeshWritesAFileThatLoadMeshReadsBack) {
   playPath(blockIncision(), 200.0, [&](const ToolPose& p) { send(p); });
   auto cut = listener_.settled();

@@ -89,6 +89,52 @@ TEST(Collapse, CrackStoppingInsideKeepsItsTopology) {
   EXPECT_GT(collapsed.stats.collapse.collapsed_edges, 10);
 }
 
+// collapse/flips and collapse/smoothing (our extensions, on by default) follow the config, live
+// too. Both off, the queue only collapses edges, as the paper's does: no flip and no smoothing
+// move, and the severed block keeps the topology and volume it has without collapse. Turned on
+// halfway through the incision, they work on from there.
+TEST(Collapse, FlipsAndSmoothingFollowTheirKeysLive) {
+  using CollapseStats = decltype(Statistics::collapse);
+  const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.6);
+  const Outcome plain = run(false, path, 0.06);
+  Config c = withCollapse(true, 0.06);
+  c.collapse.flips = false;
+  c.collapse.smoothing = false;
+  Tissue papers(c, makeBlock());
+  ASSERT_EQ(replay(papers, path), "");
+  const CollapseStats alone = papers.statistics().collapse;
+  EXPECT_EQ(alone.flips, 0);
+  EXPECT_EQ(alone.smoothed_vertices, 0);
+  EXPECT_GT(alone.collapsed_edges, 20);
+  EXPECT_EQ(countPieces(papers.mesh()), plain.pieces);
+  EXPECT_EQ(boundaryEulerCharacteristic(papers.mesh()), plain.euler);
+  EXPECT_NEAR(papers.mesh().restVolume(), plain.volume, 1e-3 * plain.volume);
+
+  Tissue switched(c, makeBlock());
+  int tick = 0;
+  CollapseStats at_switch;
+  ASSERT_EQ(replay(switched, path, 0,
+                   [&] {
+                     if (++tick != 300) return;
+                     at_switch = switched.statistics().collapse;
+                     Config on = switched.config();
+                     on.collapse.flips = true;
+                     on.collapse.smoothing = true;
+                     ASSERT_EQ(switched.reconfigure(on), "");
+                   }),
+            "");
+  const CollapseStats after = switched.statistics().collapse;
+  std::printf("both off: %d collapses; switched on at tick 300: %d collapses, %d flips, "
+              "%d smoothing moves before, %d, %d, %d at the end\n",
+              alone.collapsed_edges, at_switch.collapsed_edges, at_switch.flips,
+              at_switch.smoothed_vertices, after.collapsed_edges, after.flips,
+              after.smoothed_vertices);
+  EXPECT_GT(at_switch.collapsed_edges, 0);
+  EXPECT_EQ(at_switch.flips + at_switch.smoothed_vertices, 0);
+  EXPECT_GT(after.flips + after.smoothed_vertices, 0);
+  EXPECT_EQ(countPieces(switched.mesh()), plain.pieces);
+}
+
 TEST(Collapse, ABudgetLeavesWorkQueuedForLaterTicks) {
   const ScalpelPath path = line({-0.07, 0.0013, 0.045}, {0.07, 0.0013, 0.045}, 0.3);
   // 20 us a tick is far less than the cut queues while the blade runs. The tissue's clock

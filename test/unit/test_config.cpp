@@ -37,6 +37,8 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   other.collapse.tau = 0.9;
   other.collapse.budget_us = 7;
   other.collapse.deadline = 0.25;
+  other.collapse.flips = !d.collapse.flips;
+  other.collapse.smoothing = !d.collapse.smoothing;
   other.physics.enabled = !d.physics.enabled;
   other.physics.integrator = "semi_implicit";
   other.physics.density = 1;
@@ -68,6 +70,8 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.collapse.tau, d.collapse.tau);
   EXPECT_EQ(f.collapse.budget_us, d.collapse.budget_us);
   EXPECT_EQ(f.collapse.deadline, d.collapse.deadline);
+  EXPECT_EQ(f.collapse.flips, d.collapse.flips);
+  EXPECT_EQ(f.collapse.smoothing, d.collapse.smoothing);
   EXPECT_EQ(f.physics.enabled, d.physics.enabled);
   EXPECT_EQ(f.physics.integrator, d.physics.integrator);
   EXPECT_EQ(f.physics.density, d.physics.density);
@@ -82,7 +86,7 @@ TEST(Config, DefaultsEqualTheShippedYaml) {
   EXPECT_EQ(f.physics.local_presolve, d.physics.local_presolve);
   EXPECT_EQ(f.physics.local_presolve_neighbours, d.physics.local_presolve_neighbours);
   EXPECT_EQ(f.physics.quadratic_warm_start, d.physics.quadratic_warm_start);
-  EXPECT_EQ(configKeys().size(), 29u) << "a key was added: extend this test and tissue.yaml";
+  EXPECT_EQ(configKeys().size(), 31u) << "a key was added: extend this test and tissue.yaml";
 }
 
 TEST(Config, PartialFileOverridesOnlyItsKeys) {
@@ -112,6 +116,8 @@ TEST(Config, AbsurdValuesAreNamed) {
       {"collapse:\n  tau: 2\n", "collapse/tau"},
       {"collapse:\n  deadline: 1.5\n", "collapse/deadline"},
       {"collapse:\n  deadline: -0.1\n", "collapse/deadline"},
+      {"collapse:\n  flips: sometimes\n", "collapse/flips"},
+      {"collapse:\n  smoothing: 0.5\n", "collapse/smoothing"},
       {"physics:\n  integrator: rk4\n", "physics/integrator"},
       {"physics:\n  density: .nan\n", "physics/density"},
       {"physics:\n  gravity: [0, 1]\n", "physics/gravity"},
