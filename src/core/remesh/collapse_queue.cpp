@@ -388,10 +388,24 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   const double budget = budget_us > 0.0 ? budget_us : budget_us_;
   const auto start = std::chrono::steady_clock::now();
   // Tets waiting for a busy neighbourhood stay aside while busy() answers as before: they would
-  // only wait again (a tet a collapse changed since is queued anew by touched()).
+  // only wait again (a tet a collapse changed since is queued anew by touched()). When it answers
+  // anew, those still busy and current stay aside too: busy() does not change within a call, so
+  // each would only go round the heap back to here. The gone are dropped and the stale go back to
+  // the heap, as the heap's own tests below would have them.
+  auto anyBusy = [&](const TetVerts& tv) {
+    return std::any_of(tv.begin(), tv.end(), [&](int v) { return busy(v); });
+  };
   if (busy_changed) {
-    for (const Entry& e : waiting_) push(e);
-    waiting_.clear();
+    std::size_t kept = 0;
+    for (const Entry& e : waiting_) {
+      if (!mesh_->tetAlive(e.tet) || mesh_->tet(e.tet) != e.verts) continue;
+      if (e.stamp == stampOf(e.verts) && anyBusy(e.verts)) {
+        waiting_[kept++] = e;
+      } else {
+        push(e);
+      }
+    }
+    waiting_.resize(kept);
   }
   auto elapsed_us = [&] {
     return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start)
@@ -452,7 +466,7 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     }
     // (busy through a reference: std::any_of takes its predicate by value, and a std::function
     // copy per entry cost more than the test.)
-    if (std::any_of(e.verts.begin(), e.verts.end(), [&](int v) { return busy(v); })) {
+    if (anyBusy(e.verts)) {
       waiting_.push_back(e);
       continue;
     }
