@@ -43,7 +43,9 @@ double boundaryDeviation(const TetMesh& mesh, int removed, int survivor, double 
 double materialAngle(const TetMesh& mesh, int u, int v) {
   const Vec3 &p = mesh.rest(u), axis = (mesh.rest(v) - p).normalized();
   double sum = 0.0;
-  for (int t : mesh.edgeTets(u, v)) {
+  // The edge's tets in u's star order (as TetMesh::edgeTets(u, v) lists them), without a list.
+  for (int t : mesh.vertexTets(u)) {
+    if (!contains(mesh.tet(t), v)) continue;
     Vec3 side[2];
     int k = 0;
     for (int w : mesh.tet(t))
@@ -58,11 +60,55 @@ double materialAngle(const TetMesh& mesh, int u, int v) {
 
 // Whether `removed` may move onto `survivor` as far as the crack fronts through `removed` go:
 // a front vertex only along its front, which then shifts by at most the tolerance.
+// The fold edges at v (see foldNeighbours): each one's other end once, in the order found, to
+// add(u), which returns whether to go on looking; known(u) says whether u was added already.
+template <typename Known, typename Add>
+void findFolds(const TetMesh& mesh, int v, const Known& known, const Add& add) {
+  // Each boundary face at v gives its outward unit normal to its two edges through v (a list
+  // kept a thread: a collapse asks this for each end).
+  thread_local std::vector<std::pair<int, Vec3>> edge_normals;
+  edge_normals.clear();
+  for (int t : mesh.vertexTets(v)) {
+    const TetVerts& tv = mesh.tet(t);
+    for (int f = 0; f < 4; ++f) {
+      if (tv[f] == v || mesh.neighbor(t, f) >= 0) continue;
+      const Vec3& a = mesh.rest(tv[kTetFace[f][0]]);
+      Vec3 n = (mesh.rest(tv[kTetFace[f][1]]) - a).cross(mesh.rest(tv[kTetFace[f][2]]) - a);
+      if (n.dot(mesh.rest(tv[f]) - a) > 0) n = -n;  // away from the tet's own fourth vertex
+      const double len = n.norm();
+      if (!(len > 0)) continue;
+      n /= len;
+      for (int k = 0; k < 3; ++k) {
+        const int u = tv[kTetFace[f][k]];
+        if (u != v) edge_normals.emplace_back(u, n);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < edge_normals.size(); ++i)
+    for (std::size_t j = i + 1; j < edge_normals.size(); ++j)
+      if (edge_normals[i].first == edge_normals[j].first &&
+          edge_normals[i].second.dot(edge_normals[j].second) < kFoldCosine &&
+          !known(edge_normals[i].first) && materialAngle(mesh, v, edge_normals[i].first) > kPi &&
+          !add(edge_normals[i].first))
+        return;
+}
+
 bool frontKept(const TetMesh& mesh, int removed, int survivor, double shape_tolerance,
                double length_floor) {
-  const std::vector<int> folds = foldNeighbours(mesh, removed);
-  if (folds.empty()) return true;
-  if (folds.size() != 2) return false;  // where a front ends or fronts meet: a corner
+  // Up to three folds, on the stack: a third already makes a corner.
+  std::array<int, 3> folds{};
+  std::size_t count = 0;
+  findFolds(
+      mesh, removed,
+      [&](int u) {
+        return std::find(folds.begin(), folds.begin() + count, u) != folds.begin() + count;
+      },
+      [&](int u) {
+        folds[count++] = u;
+        return count < folds.size();
+      });
+  if (count == 0) return true;
+  if (count != 2) return false;  // where a front ends or fronts meet: a corner
   const int other = folds[0] == survivor ? folds[1] : folds[1] == survivor ? folds[0] : -1;
   if (other < 0) return false;  // off the front: the crack would close behind it
   const Vec3 &p = mesh.rest(removed), &s = mesh.rest(survivor), &o = mesh.rest(other);
@@ -196,34 +242,13 @@ double soundQualityInMesh(const TetMesh& mesh, const TetVerts& tv) {
 }
 
 std::vector<int> foldNeighbours(const TetMesh& mesh, int v) {
-  // Each boundary face at v gives its outward unit normal to its two edges through v (a list
-  // kept a thread: a collapse asks this for each end).
-  thread_local std::vector<std::pair<int, Vec3>> edge_normals;
-  edge_normals.clear();
-  for (int t : mesh.vertexTets(v)) {
-    const TetVerts& tv = mesh.tet(t);
-    for (int f = 0; f < 4; ++f) {
-      if (tv[f] == v || mesh.neighbor(t, f) >= 0) continue;
-      const Vec3& a = mesh.rest(tv[kTetFace[f][0]]);
-      Vec3 n = (mesh.rest(tv[kTetFace[f][1]]) - a).cross(mesh.rest(tv[kTetFace[f][2]]) - a);
-      if (n.dot(mesh.rest(tv[f]) - a) > 0) n = -n;  // away from the tet's own fourth vertex
-      const double len = n.norm();
-      if (!(len > 0)) continue;
-      n /= len;
-      for (int k = 0; k < 3; ++k) {
-        const int u = tv[kTetFace[f][k]];
-        if (u != v) edge_normals.emplace_back(u, n);
-      }
-    }
-  }
   std::vector<int> folds;
-  for (std::size_t i = 0; i < edge_normals.size(); ++i)
-    for (std::size_t j = i + 1; j < edge_normals.size(); ++j)
-      if (edge_normals[i].first == edge_normals[j].first &&
-          edge_normals[i].second.dot(edge_normals[j].second) < kFoldCosine &&
-          std::find(folds.begin(), folds.end(), edge_normals[i].first) == folds.end() &&
-          materialAngle(mesh, v, edge_normals[i].first) > kPi)
-        folds.push_back(edge_normals[i].first);
+  findFolds(
+      mesh, v, [&](int u) { return std::find(folds.begin(), folds.end(), u) != folds.end(); },
+      [&](int u) {
+        folds.push_back(u);
+        return true;
+      });
   std::sort(folds.begin(), folds.end());
   return folds;
 }
