@@ -391,6 +391,11 @@ class Cutter {
   mutable std::vector<int> seen_scratch_;    // coarseOf()'s and coarseAround()'s pending tets
   mutable std::vector<int> points_scratch_;  // conforming()'s points
   ChangeRecord mesh_change_;                 // changeMesh()'s record, emptied before each use
+  std::vector<int> change_added_;            // changeMesh()'s new tets, emptied likewise
+  // subdivide()'s and finalize()'s lists, kept for their room (finalize() calls subdivide()).
+  TetSplit subdivide_split_, finalize_split_;
+  std::vector<int> subdivide_ids_, subdivide_old_, finalize_ids_, finalize_from_;
+  Pending finalize_pending_;
   std::vector<int> refiled_;  // tets the grid filed anew this tick (TetGrid::refresh)
   std::vector<int> update_refiled_;  // and with a change (TetGrid::update)
   double moved_ = 0.0;        // how far vertices may have moved since the grid's last refresh
@@ -442,7 +447,7 @@ class Cutter {
   ChangeRecord separate_change_;
   std::vector<int> in_group_;
   std::vector<std::pair<std::array<int, 3>, bool>> separate_marks_;
-  std::vector<int> separate_pendings_, separate_pieces_;
+  std::vector<int> separate_pendings_, separate_pieces_, separate_ids_;
   std::vector<unsigned> region_stamp_, check_stamp_;
   unsigned region_call_ = 0, check_call_ = 0;
   std::vector<unsigned char> split_state_;

@@ -75,10 +75,16 @@ std::vector<std::array<int, 3>> faceTriangles(const TetCut& cut, int f);
 /// current positions.
 TetSplit splitTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current,
                   int steiner);
+/// The same into *out (its lists emptied first and reused: no allocation once they have room).
+void splitTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current, int steiner,
+              TetSplit* out);
 
 /// A temporary subdivision while the blade is still inside: conforming to the points so far, no
 /// cut faces. kNeedsSteiner when no point of the tet can serve as apex.
 TetSplit subdivideTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current,
                       int steiner);
+/// The same into *out (its lists emptied first and reused).
+void subdivideTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current,
+                  int steiner, TetSplit* out);
 
 }  // namespace tissue_cut

@@ -199,6 +199,10 @@ class TetMesh {
   /// than two tets.
   std::vector<int> replaceTets(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                                ChangeRecord* record, const std::vector<int>* from = nullptr);
+  /// The same with the new tets' ids into *ids (emptied first; its room reused; not `remove` or
+  /// `from`).
+  void replaceTets(const std::vector<int>& remove, const std::vector<TetVerts>& add,
+                   ChangeRecord* record, const std::vector<int>* from, std::vector<int>* ids);
   /// Removes a vertex that no tet uses any more.
   void removeVertex(int v, ChangeRecord* record);
   /// Moves vertex v to the parents' weighted sums of rest and current positions and velocities
@@ -216,6 +220,9 @@ class TetMesh {
   /// positive rest volume.
   std::vector<int> renameVertex(const std::vector<int>& tets, int v, int copy,
                                 ChangeRecord* record);
+  /// The same with the new slots into *ids (emptied first; its room reused; not `tets`).
+  void renameVertex(const std::vector<int>& tets, int v, int copy, ChangeRecord* record,
+                    std::vector<int>* ids);
   /// Moves every tet of `removed` onto `survivor`; tets holding both vanish; `removed` dies.
   /// Geometry of the survivor is unchanged.
   void mergeVertices(int removed, int survivor, ChangeRecord* record);
@@ -253,6 +260,8 @@ class TetMesh {
   unsigned removing_stamp_ = 0;
   std::vector<std::array<int, 3>> face_scratch_;
   std::vector<int> merge_old_, merge_from_;  // mergeVertices()'s star and the tets moved
+  std::vector<int> merge_ids_;               // and their new slots
+  std::vector<int> move_star_;               // moveVertex()'s star
   std::vector<TetVerts> merge_moved_;
   // restack()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
   std::vector<int> move_place_, move_vertices_;

@@ -335,9 +335,9 @@ bool Cutter::changeMesh(const std::vector<int>& remove, const Make& make, Change
                         std::vector<int>* ids) {
   ChangeRecord& local = mesh_change_;  // (make() changes only the mesh: never nested)
   local.clear();
-  std::vector<int> added;
+  std::vector<int>& added = change_added_;
   try {
-    added = make(&local);
+    make(&local, &added);
   } catch (const std::logic_error& e) {
     // TetMesh checks a change whole before making it: refused, the mesh is as it was. The caller
     // leaves the cut closed there; the tick reports it and the model goes on.
@@ -350,22 +350,28 @@ bool Cutter::changeMesh(const std::vector<int>& remove, const Make& make, Change
   stateChanged();
   refreshGrid(local);
   change->append(local);
-  if (ids) *ids = std::move(added);
+  if (ids) ids->assign(added.begin(), added.end());
   return true;
 }
 
 bool Cutter::replace(const std::vector<int>& remove, const std::vector<TetVerts>& add,
                      ChangeRecord* change, const std::vector<int>* from, std::vector<int>* ids) {
   return changeMesh(
-      remove, [&](ChangeRecord* local) { return mesh_->replaceTets(remove, add, local, from); },
+      remove,
+      [&](ChangeRecord* local, std::vector<int>* added) {
+        mesh_->replaceTets(remove, add, local, from, added);
+      },
       change, ids);
 }
 
 bool Cutter::splitOff(const std::vector<int>& tets, int v, int copy, ChangeRecord* change,
                       std::vector<int>* ids) {
   return changeMesh(
-      tets, [&](ChangeRecord* local) { return mesh_->renameVertex(tets, v, copy, local); }, change,
-      ids);
+      tets,
+      [&](ChangeRecord* local, std::vector<int>* added) {
+        mesh_->renameVertex(tets, v, copy, local, added);
+      },
+      change, ids);
 }
 
 void Cutter::noteChanged(const ChangeRecord& change) {
@@ -674,14 +680,16 @@ void Cutter::subdivide(int pid, ChangeRecord* change) {
   ++counts_.subdivisions;
   auto rest = [this](int v) { return mesh_->rest(v); };
   auto cur = [this](int v) { return mesh_->current(v); };
-  TetSplit split = subdivideTet(p.cut, rest, cur, p.steiner);
+  TetSplit& split = subdivide_split_;
+  subdivideTet(p.cut, rest, cur, p.steiner, &split);
   if (split.kind == SplitKind::kNeedsSteiner) {
     p.steiner = addSteiner(p, change);
-    split = subdivideTet(p.cut, rest, cur, p.steiner);
+    subdivideTet(p.cut, rest, cur, p.steiner, &split);
   }
   if (split.kind == SplitKind::kUntouched) return;
-  std::vector<int> ids;
-  const std::vector<int> old = p.pieces;
+  std::vector<int>& ids = subdivide_ids_;
+  std::vector<int>& old = subdivide_old_;
+  old = p.pieces;
   // The pieces stand in for the pending tet, whose corners, edges and faces a sweep looks at:
   // nothing new for the quiet ticks' features.
   pieces_only_ = true;
@@ -702,13 +710,15 @@ void Cutter::dropUnusedSteiner(int* steiner, ChangeRecord* change) {
 }
 
 void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) {
-  Pending p = pending_[pid];
+  Pending& p = finalize_pending_;  // a copy: pending_[pid] is erased below
+  p = pending_[pid];
   auto rest = [this](int v) { return mesh_->rest(v); };
   auto cur = [this](int v) { return mesh_->current(v); };
-  TetSplit split = splitTet(p.cut, rest, cur, p.steiner);
+  TetSplit& split = finalize_split_;
+  splitTet(p.cut, rest, cur, p.steiner, &split);
   if (split.kind == SplitKind::kNeedsSteiner) {
     if (p.steiner < 0) p.steiner = addSteiner(p, change);
-    split = splitTet(p.cut, rest, cur, p.steiner);
+    splitTet(p.cut, rest, cur, p.steiner, &split);
   }
   // A tent's sheet ends at its centroid. Where a later pass of the blade crossed this tet's edge
   // next to a wound vertex at one end, the crossing was dropped because that vertex stood for it
@@ -740,8 +750,9 @@ void Cutter::finalize(int pid, ChangeRecord* change, std::vector<int>* touched) 
     p.pieces = pending_[pid].pieces;
   };
   if (split.kind != SplitKind::kUntouched && split.kind != SplitKind::kAlongFace) {
-    std::vector<int> ids;
-    const std::vector<int> from(split.tets.size(), -1);
+    std::vector<int>& ids = finalize_ids_;
+    std::vector<int>& from = finalize_from_;
+    from.assign(split.tets.size(), -1);
     if (!replace(p.pieces, split.tets, change, &from, &ids)) {
       // Refused: the tet keeps its temporary pieces (they fill it and conform to every point),
       // and the cut stays closed inside it.
@@ -1179,7 +1190,7 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
         if (pending_of_[t] >= 0) pendings.push_back(pending_of_[t]);
       std::sort(pendings.begin(), pendings.end());
       pendings.erase(std::unique(pendings.begin(), pendings.end()), pendings.end());
-      std::vector<int> ids;
+      std::vector<int>& ids = separate_ids_;
       if (!splitOff(tets, v, copy, &local, &ids)) {
         // Refused: no copy; the faces that would have opened here stay closed for good.
         ChangeRecord gone;  // appended, so that the copy never existed

@@ -470,50 +470,73 @@ std::vector<std::array<int, 3>> faceTriangles(const TetCut& cut, int f) {
   return {tris.begin(), tris.end()};
 }
 
-TetSplit splitTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current,
-                  int steiner) {
+namespace {
+
+// *out as a TetSplit{} is, its lists' room kept.
+void emptySplit(TetSplit* out) {
+  out->kind = SplitKind::kUntouched;
+  out->tets.clear();
+  out->cut_faces.clear();
+}
+
+}  // namespace
+
+void splitTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current, int steiner,
+              TetSplit* out) {
   const Checker check(cut, rest, current);
-  TetSplit out;
+  emptySplit(out);
   if (!cut.hasPoints()) {
     // Only corners on the cut: along a face, or merely touched.
-    if (splitComplete(cut, check, &out)) return out;
-    out.kind = SplitKind::kUntouched;
-    out.tets = {cut.corner};
-    return out;
+    if (splitComplete(cut, check, out)) return;
+    out->kind = SplitKind::kUntouched;
+    out->tets.assign(1, cut.corner);
+    return;
   }
-  if (splitComplete(cut, check, &out)) return out;
-  if (splitPartial(cut, check, &out)) return out;
+  if (splitComplete(cut, check, out)) return;
+  if (splitPartial(cut, check, out)) return;
   const auto traces = faceTraces(cut);
-  if (traces.empty() && coneFromAPoint(cut, check, &out)) return out;
+  if (traces.empty() && coneFromAPoint(cut, check, out)) return;
   if (steiner < 0) {
-    out.kind = SplitKind::kNeedsSteiner;
-    return out;
+    out->kind = SplitKind::kNeedsSteiner;
+    return;
   }
-  out.kind = SplitKind::kTent;
+  out->kind = SplitKind::kTent;
   const Tets tets = coneFrom(steiner, allFaceTriangles(cut));
-  out.tets.assign(tets.begin(), tets.end());
-  out.cut_faces.reserve(traces.size());
-  for (const auto& t : traces) out.cut_faces.push_back({steiner, t[0], t[1]});
+  out->tets.assign(tets.begin(), tets.end());
+  out->cut_faces.reserve(traces.size());
+  for (const auto& t : traces) out->cut_faces.push_back({steiner, t[0], t[1]});
+}
+
+TetSplit splitTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current,
+                  int steiner) {
+  TetSplit out;
+  splitTet(cut, rest, current, steiner, &out);
   return out;
+}
+
+void subdivideTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current,
+                  int steiner, TetSplit* out) {
+  emptySplit(out);
+  if (!cut.hasPoints()) {
+    out->kind = SplitKind::kUntouched;
+    out->tets.assign(1, cut.corner);
+    return;
+  }
+  const Checker check(cut, rest, current);
+  if (coneFromAPoint(cut, check, out)) return;
+  if (steiner < 0) {
+    out->kind = SplitKind::kNeedsSteiner;
+    return;
+  }
+  out->kind = SplitKind::kCone;
+  const Tets tets = coneFrom(steiner, allFaceTriangles(cut));
+  out->tets.assign(tets.begin(), tets.end());
 }
 
 TetSplit subdivideTet(const TetCut& cut, const PositionFn& rest, const PositionFn& current,
                       int steiner) {
   TetSplit out;
-  if (!cut.hasPoints()) {
-    out.kind = SplitKind::kUntouched;
-    out.tets = {cut.corner};
-    return out;
-  }
-  const Checker check(cut, rest, current);
-  if (coneFromAPoint(cut, check, &out)) return out;
-  if (steiner < 0) {
-    out.kind = SplitKind::kNeedsSteiner;
-    return out;
-  }
-  out.kind = SplitKind::kCone;
-  const Tets tets = coneFrom(steiner, allFaceTriangles(cut));
-  out.tets.assign(tets.begin(), tets.end());
+  subdivideTet(cut, rest, current, steiner, &out);
   return out;
 }
 

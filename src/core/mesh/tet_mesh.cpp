@@ -452,6 +452,14 @@ void TetMesh::unlinkTet(int t) {
 std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
                                       const std::vector<TetVerts>& add, ChangeRecord* record,
                                       const std::vector<int>* from) {
+  std::vector<int> ids;
+  replaceTets(remove, add, record, from, &ids);
+  return ids;
+}
+
+void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetVerts>& add,
+                          ChangeRecord* record, const std::vector<int>* from,
+                          std::vector<int>* ids_out) {
   if (from && from->size() != add.size())
     throw std::logic_error("TetMesh::replaceTets: `from` must be parallel to `add`");
   // Check everything first, so a refused change leaves the mesh as it was. The tets removed are
@@ -505,7 +513,8 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
     free_tets_.push_back(t);
     --num_tets_;
   }
-  std::vector<int> ids;
+  std::vector<int>& ids = *ids_out;
+  ids.clear();
   ids.reserve(add.size());
   for (const TetVerts& tv : add) {
     int t = allocateTet();
@@ -522,7 +531,6 @@ std::vector<int> TetMesh::replaceTets(const std::vector<int>& remove,
     for (std::size_t i = 0; i < ids.size(); ++i)
       record->added_from.push_back(from ? (*from)[i] : -1);
   }
-  return ids;
 }
 
 void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, ChangeRecord* record) {
@@ -539,7 +547,8 @@ void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, Change
   // The star is announced as replaced by the same tets, exactly as replaceTets(star, star's tets,
   // record, &star) would leave it (that is what this did), without its checks and searches:
   // nothing but the numbering changes (a smoothing move costs a tenth of what it did).
-  const std::vector<int> star = vertex_tets_[v];
+  std::vector<int>& star = move_star_;  // a copy: restack() changes the star
+  star = vertex_tets_[v];
   const Vec3 old_rest = rest_[v];
   rest_[v] = r;
   for (int t : star) {
@@ -558,6 +567,13 @@ void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, Change
 
 std::vector<int> TetMesh::renameVertex(const std::vector<int>& tets, int v, int copy,
                                        ChangeRecord* record) {
+  std::vector<int> ids;
+  renameVertex(tets, v, copy, record, &ids);
+  return ids;
+}
+
+void TetMesh::renameVertex(const std::vector<int>& tets, int v, int copy, ChangeRecord* record,
+                           std::vector<int>* ids) {
   auto refuse = [](const std::string& why) {
     throw std::logic_error("TetMesh::renameVertex: " + why);
   };
@@ -581,8 +597,7 @@ std::vector<int> TetMesh::renameVertex(const std::vector<int>& tets, int v, int 
       refuse("tet " + std::to_string(t) + " would have no positive rest volume");
   }
   restack(tets, v, copy, record);
-  std::vector<int> ids(tets.rbegin(), tets.rend());
-  return ids;
+  ids->assign(tets.rbegin(), tets.rend());
 }
 
 void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecord* record) {
@@ -676,7 +691,7 @@ void TetMesh::mergeVertices(int removed, int survivor, ChangeRecord* record) {
     moved.push_back(tv);
     from.push_back(t);
   }
-  replaceTets(old, moved, record, &from);
+  replaceTets(old, moved, record, &from, &merge_ids_);
   removeVertex(removed, record);
   if (record) record->merged_vertices.emplace_back(removed, survivor);
 }
