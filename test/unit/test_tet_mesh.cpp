@@ -152,6 +152,23 @@ TEST(InlineVector, HoldsUpToItsCapacityAndRefusesMore) {
   EXPECT_THROW((InlineVector<int, 1>{1, 2}), std::length_error);
 }
 
+// A new vertex's parents are a tet's corners at most, kept in the change record in place: a
+// fifth is refused before the mesh is touched.
+TEST(TetMesh, AVertexHasAtMostFourParentsKeptInPlace) {
+  TetMesh mesh = twoTets();
+  ChangeRecord record;
+  const int m = mesh.addVertex({{0, 0.25}, {1, 0.25}, {2, 0.25}, {3, 0.25}}, &record);
+  ASSERT_EQ(record.vertex_parents.size(), 1u);
+  EXPECT_EQ(record.vertex_parents[0].size(), 4u);
+  EXPECT_EQ(record.vertex_parents[0][3].vertex, 3);
+  EXPECT_EQ(mesh.rest(m), 0.25 * (mesh.rest(0) + mesh.rest(1) + mesh.rest(2) + mesh.rest(3)));
+  const int slots = mesh.vertexSlots();
+  EXPECT_THROW(mesh.addVertex({{0, 0.2}, {1, 0.2}, {2, 0.2}, {3, 0.2}, {4, 0.2}}, &record),
+               std::length_error);
+  EXPECT_EQ(mesh.vertexSlots(), slots);
+  EXPECT_EQ(record.vertex_parents.size(), 1u);
+}
+
 TEST(TetMesh, AdjacencyAndBoundaryOfTwoGluedTets) {
   TetMesh mesh = twoTets();
   EXPECT_EQ(mesh.numTets(), 2);

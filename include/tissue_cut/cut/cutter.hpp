@@ -137,6 +137,8 @@ class Cutter {
   std::function<void(const TetCut&, const TetSplit&)> on_split;
 
  private:
+  // A pending tet's pieces: a cone from a point over its faces' triangles, rarely more than this.
+  static constexpr std::size_t kPiecesRoom = 24;
   struct Pending {
     TetCut cut;
     std::vector<int> pieces;  // tet slots that stand for it now
@@ -386,6 +388,7 @@ class Cutter {
   // Scratch buffers of one tick, kept for their capacity.
   std::vector<int> near_scratch_;
   std::vector<Coarse> sweep_near_, front_near_;  // sweep()'s and crossFront()'s coarse tets
+  std::vector<TetVerts> sweep_corners_;  // sweep()'s coarse tets near the swept triangles
   std::vector<Coarse> around_;  // the coarse tets around an edge or face a point is put on
   std::vector<std::array<int, 3>> front_done_;  // crossFront()'s faces tried (sorted corners)
   mutable std::vector<int> seen_scratch_;    // coarseOf()'s and coarseAround()'s pending tets

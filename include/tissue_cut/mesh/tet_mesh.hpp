@@ -10,6 +10,8 @@
 #include <utility>
 #include <vector>
 
+#include "tissue_cut/mesh/inline_vector.hpp"
+
 namespace tissue_cut {
 
 using Vec3 = Eigen::Vector3d;
@@ -92,6 +94,9 @@ struct VertexParent {
   int vertex;
   double weight;
 };
+/// A vertex's parents: at most a tet's four corners (kept in place: a cut makes vertices by the
+/// dozen a tick). A fifth throws std::length_error.
+using VertexParents = InlineVector<VertexParent, 4>;
 
 /// What one topology change did. Everyone keeping per-vertex or per-tet data updates from it, in
 /// this order: removed tets, removed vertices, added vertices, added tets. Slots in the removed
@@ -103,7 +108,7 @@ struct ChangeRecord {
   /// with a vertex renamed or moved), or -1 for a new element made by a cut.
   std::vector<int> added_from;
   std::vector<int> added_vertices;
-  std::vector<std::vector<VertexParent>> vertex_parents;  ///< parallel to added_vertices
+  std::vector<VertexParents> vertex_parents;  ///< parallel to added_vertices
   std::vector<int> removed_vertices;
   std::vector<std::pair<int, int>>
       merged_vertices;  ///< (removed, survivor), also in removed_vertices
@@ -190,7 +195,7 @@ class TetMesh {
 
   // --- changes (each returns what it did)
   /// Adds a vertex whose rest and current position and velocity are the parents' weighted sums.
-  int addVertex(const std::vector<VertexParent>& parents, ChangeRecord* record);
+  int addVertex(const VertexParents& parents, ChangeRecord* record);
   /// Removes the tets `remove`, then adds `add` (vertex ids, positively oriented in rest
   /// positions); updates incidence and adjacency locally. `from` (optional, parallel to `add`)
   /// names the removed tet each added one continues, -1 for new ones (see ChangeRecord).
@@ -210,7 +215,7 @@ class TetMesh {
   /// same tets (added_from = themselves), so masses and springs follow. The caller makes sure no
   /// tet of the star inverts. Throws std::logic_error (mesh unchanged) for a dead vertex or
   /// parent, or when a tet of the star would have no positive rest volume.
-  void moveVertex(int v, const std::vector<VertexParent>& parents, ChangeRecord* record);
+  void moveVertex(int v, const VertexParents& parents, ChangeRecord* record);
   /// The tets `tets` (live, each holding v) take `copy` (live, in no tet yet: a vertex just
   /// added) in place of v: the faces among them stay joined, those through v to other tets open.
   /// Leaves the mesh and `record` exactly as replaceTets(tets, the renamed tets, record, &tets)

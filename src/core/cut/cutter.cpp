@@ -477,7 +477,9 @@ int Cutter::makePending(int tet) {
   Pending& p = pending_[pid];
   p.cut.corner = mesh_->tet(tet);
   for (int c = 0; c < 4; ++c) p.cut.on_cut[c] = onCut(p.cut.corner[c]);
-  p.pieces = {tet};
+  // Room for the pieces of its subdivisions (setPieces()), taken once.
+  p.pieces.reserve(kPiecesRoom);
+  p.pieces.assign(1, tet);
   pending_of_[tet] = pid;
   stateChanged();
   return pid;
@@ -1343,8 +1345,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
     }
     return best;
   };
-  std::vector<TetVerts> corners;
-  corners.reserve(near.size());
+  std::vector<TetVerts>& corners = sweep_corners_;
+  corners.clear();
   for (const Coarse& c : near) {
     const TetVerts tv = cornersOf(c);
     const double gap = reach(tv);

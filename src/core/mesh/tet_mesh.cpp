@@ -373,7 +373,7 @@ int TetMesh::allocateTet() {
   return tetSlots() - 1;
 }
 
-int TetMesh::addVertex(const std::vector<VertexParent>& parents, ChangeRecord* record) {
+int TetMesh::addVertex(const VertexParents& parents, ChangeRecord* record) {
   Vec3 r = Vec3::Zero(), c = Vec3::Zero(), u = Vec3::Zero();
   for (const VertexParent& p : parents) {
     if (p.vertex < 0 || p.vertex >= vertexSlots() || !vertex_alive_[p.vertex])
@@ -533,7 +533,7 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
   }
 }
 
-void TetMesh::moveVertex(int v, const std::vector<VertexParent>& parents, ChangeRecord* record) {
+void TetMesh::moveVertex(int v, const VertexParents& parents, ChangeRecord* record) {
   if (v < 0 || v >= vertexSlots() || !vertex_alive_[v])
     throw std::logic_error("TetMesh::moveVertex: dead vertex " + std::to_string(v));
   Vec3 r = Vec3::Zero(), c = Vec3::Zero(), u = Vec3::Zero();

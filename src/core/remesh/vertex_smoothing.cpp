@@ -182,7 +182,7 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
   }
 
   // The material point at `best`: barycentric weights in the old star tet holding it.
-  std::vector<VertexParent> parents;
+  VertexParents parents;
   double best_min = -1e300;
   for (int t : star) {
     const TetVerts& tv = mesh->tet(t);
