@@ -184,8 +184,9 @@ class Cutter {
   /// group_tets_[group_start_[k] .. group_start_[k + 1]) (until the next call).
   int groupsAround(int v) const;
   /// Of `verts`, those whose split must wait (sorted): splitting all the others, as separate()
-  /// does, keeps the boundary a 2-manifold. Keeps each vertex's groups for groupsKept().
-  std::vector<int> heldSplits(const std::vector<int>& verts);
+  /// does, keeps the boundary a 2-manifold. Keeps each vertex's groups for groupsKept(). (The
+  /// answer is kept until the next call.)
+  const std::vector<int>& heldSplits(const std::vector<int>& verts);
   /// groupsAround(v) for verts[place] of the last heldSplits(verts): its kept answer while no split
   /// since has changed a tet of v's star or a mark on one (see keptStale()), else afresh.
   int groupsKept(int v, int place);
@@ -425,9 +426,9 @@ class Cutter {
   std::vector<unsigned char> open_face_;
   // heldSplits()' lists, kept for their capacity (eight vectors grown each call had been a tenth
   // of the separation): its candidates and their stars' tets, each round's region, the faces
-  // opened, the vertices to check and those held; a checked vertex's boundary links.
+  // opened, the vertices to check and those held; a checked vertex's boundary links; the answer.
   std::vector<int> held_splitting_, held_stars_, held_region_, held_opened_, held_check_,
-      held_back_;
+      held_back_, held_result_;
   struct FanEdge {
     std::int64_t copy, prev, next;  // around the copy of the vertex, the boundary runs prev -> next
   };

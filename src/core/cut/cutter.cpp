@@ -880,7 +880,7 @@ int Cutter::groupsAround(int v) const {
   return groups;
 }
 
-std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
+const std::vector<int>& Cutter::heldSplits(const std::vector<int>& verts) {
   // Opening the cut splits vertices; a cut face opens where one of its vertices is split between
   // its two tets. While the blade is still cutting nearby, splitting some vertex may leave the
   // boundary pinched at a neighbour that cannot split yet (its star is still joined through tets
@@ -922,8 +922,9 @@ std::vector<int> Cutter::heldSplits(const std::vector<int>& verts) {
       }
   }
   // The result: the candidates held back (all of them if the rounds do not settle), sorted.
-  auto done = [&](bool settled) {
-    std::vector<int> result;
+  auto done = [&](bool settled) -> const std::vector<int>& {
+    std::vector<int>& result = held_result_;
+    result.clear();
     for (int v : splitting)
       if (!settled || split_state_[v] == kHeld) result.push_back(v);
     for (int t : stars) corner_group_[t] = {-1, -1, -1, -1};
@@ -1134,7 +1135,7 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   separated_at_ = epoch_;  // before the splits below: those make it try again next tick
   counts_.separation_tries += static_cast<long long>(touched.size());
-  const std::vector<int> held = heldSplits(touched);
+  const std::vector<int>& held = heldSplits(touched);
   std::vector<int>& after = separate_after_;  // the vertices tried that wait now, in order
   after.clear();
   bool reclosed = false;  // a refused split closed faces for good: groups may have merged
