@@ -11,7 +11,6 @@
 #include <functional>
 #include <optional>
 #include <queue>
-#include <unordered_map>
 #include <vector>
 
 #include "tissue_cut/mesh/stamped_table.hpp"
@@ -183,11 +182,17 @@ class CollapseQueue {
   // kept by the vertex that took its place. Collapses and 2-2 flips keep every such point within
   // shape_tolerance_ * length_floor_ of the surface around the vertex holding it, so the surface
   // never drifts further than that from the cut's, however many operations reach a place.
-  std::unordered_map<int, std::vector<Vec3>> ghosts_;
+  // Per vertex slot (empty: none).
+  std::vector<std::vector<Vec3>> ghosts_;
+  const std::vector<Vec3>& ghostsOf(int v) const {
+    static const std::vector<Vec3> none;
+    return static_cast<std::size_t>(v) < ghosts_.size() ? ghosts_[v] : none;
+  }
   using Triangle = std::array<Vec3, 3>;
   // ghostsKept()'s buffers, kept so that a check allocates nothing once they have grown.
   mutable std::vector<Triangle> faces_scratch_;
   mutable std::vector<Vec3> points_scratch_;
+  mutable std::vector<int> flip_ghost_verts_;  // ghostsKept(flip)'s vertices
   void boundaryFacesAround(int v, int removed, int survivor, const FlipCandidate* flip,
                            std::vector<Triangle>* out) const;
   bool ghostsNear(const std::vector<Vec3>& points, const std::vector<Triangle>& faces) const;

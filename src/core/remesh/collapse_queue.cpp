@@ -4,7 +4,6 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <set>
 
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/statistics.hpp"
@@ -302,19 +301,19 @@ bool CollapseQueue::ghostsKept(int removed, int survivor) const {
   std::vector<Vec3>& points = points_scratch_;
   points.assign(1, mesh_->rest(removed));
   for (int v : {removed, survivor}) {
-    const auto it = ghosts_.find(v);
-    if (it != ghosts_.end()) points.insert(points.end(), it->second.begin(), it->second.end());
+    const std::vector<Vec3>& kept = ghostsOf(v);
+    points.insert(points.end(), kept.begin(), kept.end());
   }
   if (!ghostsNear(points, faces)) return false;
   // Neighbours whose faces through `removed` move keep their own points near their new faces.
   for (int t : mesh_->vertexTets(removed)) {
     for (int u : mesh_->tet(t)) {
       if (u == removed || u == survivor) continue;
-      const auto it = ghosts_.find(u);
-      if (it == ghosts_.end()) continue;
+      const std::vector<Vec3>& kept = ghostsOf(u);
+      if (kept.empty()) continue;
       faces.clear();
       boundaryFacesAround(u, removed, survivor, nullptr, &faces);
-      if (!ghostsNear(it->second, faces)) return false;
+      if (!ghostsNear(kept, faces)) return false;
     }
   }
   return true;
@@ -322,15 +321,20 @@ bool CollapseQueue::ghostsKept(int removed, int survivor) const {
 
 bool CollapseQueue::ghostsKept(const FlipCandidate& flip) const {
   if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0) return true;
-  std::set<int> verts;
+  // The removed tets' vertices, each once, ascending (kept lists: no allocation once grown).
+  std::vector<int>& verts = flip_ghost_verts_;
+  verts.clear();
   for (int t : flip.removed)
-    for (int v : mesh_->tet(t)) verts.insert(v);
+    for (int v : mesh_->tet(t)) verts.push_back(v);
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  std::vector<Triangle>& around = faces_scratch_;
   for (int v : verts) {
-    const auto it = ghosts_.find(v);
-    if (it == ghosts_.end()) continue;
-    std::vector<Triangle> around;
+    const std::vector<Vec3>& kept = ghostsOf(v);
+    if (kept.empty()) continue;
+    around.clear();
     boundaryFacesAround(v, -1, -1, &flip, &around);
-    if (!ghostsNear(it->second, around)) return false;
+    if (!ghostsNear(kept, around)) return false;
   }
   return true;
 }
@@ -338,12 +342,12 @@ bool CollapseQueue::ghostsKept(const FlipCandidate& flip) const {
 void CollapseQueue::moveGhosts(int removed, int survivor) {
   if (length_floor_ <= 0.0 || shape_tolerance_ <= 0.0 || !isBoundaryVertex(*mesh_, removed))
     return;
+  growSlots(&ghosts_, mesh_->vertexSlots());
   std::vector<Vec3>& kept = ghosts_[survivor];
   kept.push_back(mesh_->rest(removed));
-  const auto it = ghosts_.find(removed);
-  if (it == ghosts_.end()) return;
-  kept.insert(kept.end(), it->second.begin(), it->second.end());
-  ghosts_.erase(it);
+  std::vector<Vec3>& gone = ghosts_[removed];
+  kept.insert(kept.end(), gone.begin(), gone.end());
+  gone.clear();  // its room stays for the slot's next vertex
 }
 
 template <typename Stop>
