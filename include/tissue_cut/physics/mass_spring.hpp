@@ -393,7 +393,8 @@ class MassSpring {
       return ratio != o.ratio ? ratio > o.ratio : ends < o.ends;
     }
   };
-  std::vector<StrongSpring> strong_;       // the strong springs, in that order
+  std::vector<StrongSpring> strong_;         // the strong springs, in that order
+  std::vector<StrongSpring> strong_merged_;  // updateStrong()'s merge, kept for its room
   double strong_dt_ = 0.0;                 // the step size of strong_; 0: find them all again
   std::vector<Cluster> clusters_;
   std::vector<int> cluster_of_;      // per vertex: its cluster's index in clusters_, or -1

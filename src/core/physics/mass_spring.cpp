@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <sstream>
 
@@ -781,7 +782,13 @@ void MassSpring::updateStrong(const std::vector<int>& vertices) {
         if (!changed(r.other)) test(r.index);  // else taken from that end's list
   }
   std::sort(strong_.begin() + kept, strong_.end());
-  std::inplace_merge(strong_.begin(), strong_.begin() + kept, strong_.end());
+  // Merged into a kept list, as std::inplace_merge would (stable: the same order), without the
+  // buffer it takes from the heap on every call; the two lists swap their room.
+  std::vector<StrongSpring>& merged = strong_merged_;
+  merged.clear();
+  std::merge(strong_.begin(), strong_.begin() + kept, strong_.begin() + kept, strong_.end(),
+             std::back_inserter(merged));
+  strong_.swap(merged);
   clusters_stale_ = true;
 }
 
