@@ -55,6 +55,7 @@ struct Statistics {
     double time_ms = 0.0;        ///< time spent in replacement (t.Repl)
     int refused = 0;             ///< replacements the mesh refused (cut left closed there)
     long long quiet_ticks = 0;   ///< ticks the blade moved on that needed no sweep (skip_quiet)
+    long long quiet_refreshes = 0;  ///< ticks its quiet reach ran out and was taken anew, unswept
   } cut;
   struct {
     int collapsed_edges = 0, removed_tetrahedra = 0, pending = 0;  ///< #RmT = removed_tetrahedra

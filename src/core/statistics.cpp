@@ -52,7 +52,8 @@ nlohmann::json Statistics::toJson() const {
               {"created_tetrahedra", cut.created_tetrahedra},
               {"time_ms", cut.time_ms},
               {"refused", cut.refused},
-              {"quiet_ticks", cut.quiet_ticks}};
+              {"quiet_ticks", cut.quiet_ticks},
+              {"quiet_refreshes", cut.quiet_refreshes}};
   j["collapse"] = {{"collapsed_edges", collapse.collapsed_edges},
                    {"removed_tetrahedra", collapse.removed_tetrahedra},
                    {"pending", collapse.pending},

@@ -279,6 +279,7 @@ Statistics Tissue::statistics() const {
   s.cut.time_ms = cutter_->counts().time_ms;
   s.cut.refused = cutter_->counts().refused;
   s.cut.quiet_ticks = cutter_->counts().quiet_ticks;
+  s.cut.quiet_refreshes = cutter_->counts().quiet_refreshes;
   const CollapseCounts& c = collapse_->counts();
   s.collapse.collapsed_edges = c.collapsed_edges;
   s.collapse.removed_tetrahedra = c.removed_tetrahedra;

@@ -811,11 +811,15 @@ TEST(Cutting, QuietTicksCutAsSweptOnes) {
     const CutCounts b = cutQuietly(blades, false, false, c.bend, &swept);
     CutCounts checks;
     EXPECT_NO_THROW(checks = cutQuietly(blades, true, true, c.bend, &checked));
-    std::printf("tremble %g m%s: %lld of %zu ticks quiet\n", c.sigma, c.bend ? ", bending" : "",
-                a.quiet_ticks, blades.size());
+    std::printf("tremble %g m%s: %lld of %zu ticks quiet; %lld quiet reaches taken anew "
+                "without a sweep (%lld checked)\n",
+                c.sigma, c.bend ? ", bending" : "", a.quiet_ticks, blades.size(),
+                a.quiet_refreshes, checks.quiet_refreshes);
     EXPECT_GT(a.cut_tetrahedra, 100);
     EXPECT_EQ(b.quiet_ticks, 0);
     EXPECT_GT(checks.quiet_ticks, 0);  // some (its sweeps leave the searches' bounds fresher)
+    EXPECT_GT(a.quiet_refreshes, 0);
+    EXPECT_GT(checks.quiet_refreshes, 0);  // those ticks' sweeps checked too
     EXPECT_EQ(a.cut_tetrahedra, b.cut_tetrahedra);
     EXPECT_EQ(a.created_tetrahedra, b.created_tetrahedra);
     EXPECT_EQ(a.separated_vertices, b.separated_vertices);

@@ -56,7 +56,9 @@ struct CutterOptions {
   /// make no point, snap no vertex and cross no face. The same cut, less work; false sweeps every
   /// tick (for comparison), as does a cutter never told how far the tissue moves.
   bool skip_quiet = true;
-  /// How far the blade may move before a tick is swept again, as a fraction of the mean edge.
+  /// How far the blade may move before the features kept for the quiet ticks are taken anew
+  /// (around the blade where the last tick left it; that tick is then swept only if it reaches
+  /// one of them), as a fraction of the mean edge.
   double quiet_reach = 0.1;
   /// Sweeps the quiet ticks too and throws std::logic_error where that changed the cut (for
   /// tests: the same cut either way, or a quiet tick was wrongly left unswept).
@@ -75,6 +77,9 @@ struct CutCounts {
   int lifts = 0;                 ///< jumps treated as the blade lifted
   int refused = 0;               ///< replacements TetMesh refused (the cut left closed there)
   long long quiet_ticks = 0;     ///< ticks the blade moved on that were not swept (skip_quiet)
+  /// Ticks whose quiet reach had run out and was taken anew without a sweep (the tick is then
+  /// quiet unless it reaches a feature kept anew).
+  long long quiet_refreshes = 0;
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
 };
 
@@ -222,6 +227,10 @@ class Cutter {
   /// take any part in it (see near_gap_).
   void sweepQuery(const BladeSegment& from, const BladeSegment& to, const Vec3& lo,
                   const Vec3& hi, std::vector<int>* out);
+  /// Whether sweepQuery() of a sweep from `from` moving the blade by `step` takes the gaps anew.
+  bool gapsRetaken(const BladeSegment& from, double step) const;
+  /// Takes the gaps anew from the blade `from` (gap_ref_), carrying those far enough.
+  void retakeGaps(const BladeSegment& from);
   /// A lower bound of tet t's distance from the blade at gap_ref_, in current positions.
   double gapOf(int t) const;
   /// The Coarse tets of `tets` (a pending tet once, at its first piece).

@@ -239,6 +239,40 @@ double Cutter::gapOf(int t) const {
                         mesh_->current(tv[3])});
 }
 
+bool Cutter::gapsRetaken(const BladeSegment& from, double step) const {
+  const bool restart = !gap_valid_ || !told_motion_ || from.base != gap_last_.base ||
+                       from.tip != gap_last_.tip;
+  return restart || gap_retake_ || !(gap_blade_ + step + gap_tissue_ <= 0.2 * mean_edge_);
+}
+
+void Cutter::retakeGaps(const BladeSegment& from) {
+  const bool restart = !gap_valid_ || !told_motion_ || from.base != gap_last_.base ||
+                       from.tip != gap_last_.tip;
+  gap_retake_ = false;
+  const double moves = gap_blade_ + gap_tissue_;
+  const bool carry = !restart && std::isfinite(moves);
+  gap_far_ = std::max({snap_distance_, frontShift(), wound_snap_distance_}) + 0.3 * mean_edge_;
+  gap_ref_ = from;
+  gap_blade_ = 0.0;
+  gap_tissue_ = 0.0;
+  near_gap_.resize(near_cache_.size());
+  for (std::size_t i = 0; i < near_cache_.size(); ++i) {
+    if (!mesh_->tetAlive(near_cache_[i])) {
+      near_gap_[i] = 0.0;
+      continue;
+    }
+    if (carry && near_gap_[i] - moves > gap_far_) {  // false for a tet new in the cache (NaN)
+      near_gap_[i] -= moves;
+      continue;
+    }
+    near_gap_[i] = gapOf(near_cache_[i]);
+  }
+  gap_valid_ = true;
+  near_close_.clear();
+  for (std::size_t i = 0; i < near_cache_.size(); ++i)
+    if (near_gap_[i] <= gap_far_) near_close_.push_back(static_cast<int>(i));
+}
+
 void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const Vec3& lo,
                         const Vec3& hi, std::vector<int>* out) {
   cacheNear(lo, hi);
@@ -251,33 +285,7 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
   // at most gap_tissue_): a tet whose bound stays beyond any reach until the gaps are taken again
   // (gap_far_) keeps it, and only the others are measured (most of the cache lies far from the
   // blade).
-  const bool restart = !gap_valid_ || !told_motion_ || from.base != gap_last_.base ||
-                       from.tip != gap_last_.tip;
-  if (restart || gap_retake_ || !(gap_blade_ + step + gap_tissue_ <= 0.2 * mean_edge_)) {
-    gap_retake_ = false;
-    const double moves = gap_blade_ + gap_tissue_;
-    const bool carry = !restart && std::isfinite(moves);
-    gap_far_ = std::max({snap_distance_, frontShift(), wound_snap_distance_}) + 0.3 * mean_edge_;
-    gap_ref_ = from;
-    gap_blade_ = 0.0;
-    gap_tissue_ = 0.0;
-    near_gap_.resize(near_cache_.size());
-    for (std::size_t i = 0; i < near_cache_.size(); ++i) {
-      if (!mesh_->tetAlive(near_cache_[i])) {
-        near_gap_[i] = 0.0;
-        continue;
-      }
-      if (carry && near_gap_[i] - moves > gap_far_) {  // false for a tet new in the cache (NaN)
-        near_gap_[i] -= moves;
-        continue;
-      }
-      near_gap_[i] = gapOf(near_cache_[i]);
-    }
-    gap_valid_ = true;
-    near_close_.clear();
-    for (std::size_t i = 0; i < near_cache_.size(); ++i)
-      if (near_gap_[i] <= gap_far_) near_close_.push_back(static_cast<int>(i));
-  }
+  if (gapsRetaken(from, step)) retakeGaps(from);
   gap_blade_ += step;
   gap_last_ = to;
   // How far from the sweep a tet can still take part in it: the wound's band (a vertex snapped
@@ -1842,6 +1850,18 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     const double step =
         std::max((blade->base - previous_->base).norm(), (blade->tip - previous_->tip).norm());
     if (quiet_unsorted_) sortQuiet();
+    // Where this tick's moves reach the quiet reach, the features near the blade where the last
+    // tick left it are taken anew instead of sweeping this tick for that alone: that tick left
+    // nothing a sweep would act on (it was swept, or it was quiet), so this one is quiet if it
+    // reaches none of them. The gaps they are taken from are first taken anew where this
+    // tick's sweep would have done so (see sweepQuery()), from the same blade: as it would.
+    if (options_.skip_quiet && quiet_valid_ && told_motion_ && !stroke_start_ &&
+        !(quiet_moved_ + step < quiet_reach_)) {
+      if (gapsRetaken(*previous_, step)) retakeGaps(*previous_);
+      ++counts_.quiet_refreshes;
+      quiet_valid_ = quietReach(*previous_) > 0.0;
+      quiet_moved_ = 0.0;
+    }
     quiet = options_.skip_quiet && quiet_valid_ && told_motion_ && !stroke_start_ &&
             quiet_moved_ + step < quiet_reach_ &&
             watchedQuiet(*previous_, *blade, quiet_moved_ + step);
