@@ -227,6 +227,9 @@ class Cutter {
   /// take any part in it (see near_gap_).
   void sweepQuery(const BladeSegment& from, const BladeSegment& to, const Vec3& lo,
                   const Vec3& hi, std::vector<int>* out);
+  /// Whether the gaps are unknown or were taken for a blade that did not go on to `from` (a new
+  /// stroke), or nobody says how far the tissue moves: none of them can be carried.
+  bool gapsRestart(const BladeSegment& from) const;
   /// Whether sweepQuery() of a sweep from `from` moving the blade by `step` takes the gaps anew.
   bool gapsRetaken(const BladeSegment& from, double step) const;
   /// Takes the gaps anew from the blade `from` (gap_ref_), carrying those far enough.

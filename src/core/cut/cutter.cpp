@@ -239,15 +239,17 @@ double Cutter::gapOf(int t) const {
                         mesh_->current(tv[3])});
 }
 
+bool Cutter::gapsRestart(const BladeSegment& from) const {
+  return !gap_valid_ || !told_motion_ || from.base != gap_last_.base || from.tip != gap_last_.tip;
+}
+
 bool Cutter::gapsRetaken(const BladeSegment& from, double step) const {
-  const bool restart = !gap_valid_ || !told_motion_ || from.base != gap_last_.base ||
-                       from.tip != gap_last_.tip;
-  return restart || gap_retake_ || !(gap_blade_ + step + gap_tissue_ <= 0.2 * mean_edge_);
+  return gapsRestart(from) || gap_retake_ ||
+         !(gap_blade_ + step + gap_tissue_ <= 0.2 * mean_edge_);
 }
 
 void Cutter::retakeGaps(const BladeSegment& from) {
-  const bool restart = !gap_valid_ || !told_motion_ || from.base != gap_last_.base ||
-                       from.tip != gap_last_.tip;
+  const bool restart = gapsRestart(from);
   gap_retake_ = false;
   const double moves = gap_blade_ + gap_tissue_;
   const bool carry = !restart && std::isfinite(moves);
