@@ -18,6 +18,14 @@ namespace tissue_cut::test {
 namespace {
 
 constexpr const char* kNode = "/tissue";
+
+// Sets the node's dynamic_reconfigure parameters that `request` holds; returns what it took.
+dynamic_reconfigure::Config reconfigureNode(const dynamic_reconfigure::Config& request) {
+  dynamic_reconfigure::Reconfigure srv;
+  srv.request.config = request;
+  EXPECT_TRUE(ros::service::call(std::string(kNode) + "/set_parameters", srv));
+  return srv.response.config;
+}
 constexpr unsigned kBlockTets = 5100;
 
 class TissueNodeTest : public ::testing::Test {
@@ -179,17 +187,16 @@ TEST_F(TissueNodeTest, ResetRestoresTheUncutMesh) {
 // incision cuts a small part of what it cuts unfiltered. Turned off again for the cases after.
 TEST_F(TissueNodeTest, ReconfigureSetsTheBladeFilterLive) {
   auto set = [](double min_cutoff, double beta) {
-    dynamic_reconfigure::Reconfigure srv;
+    dynamic_reconfigure::Config request;
     dynamic_reconfigure::DoubleParameter p;
     p.name = "blade_filter_min_cutoff";
     p.value = min_cutoff;
-    srv.request.config.doubles.push_back(p);
+    request.doubles.push_back(p);
     p.name = "blade_filter_beta";
     p.value = beta;
-    srv.request.config.doubles.push_back(p);
-    EXPECT_TRUE(ros::service::call(std::string(kNode) + "/set_parameters", srv));
+    request.doubles.push_back(p);
     std::map<std::string, double> got;
-    for (const auto& d : srv.response.config.doubles) got[d.name] = d.value;
+    for (const auto& d : reconfigureNode(request).doubles) got[d.name] = d.value;
     return got;
   };
   playPath(blockIncision(), 200.0, [&](const ToolPose& p) { send(p); });
@@ -216,16 +223,15 @@ TEST_F(TissueNodeTest, ReconfigureSetsTheBladeFilterLive) {
 // and goes on publishing.
 TEST_F(TissueNodeTest, ReconfigureTurnsTheCollapseExtensionsOffAndOn) {
   auto set = [](bool on) {
-    dynamic_reconfigure::Reconfigure srv;
+    dynamic_reconfigure::Config request;
     dynamic_reconfigure::BoolParameter p;
     p.value = on;
     for (const char* name : {"collapse_flips", "collapse_smoothing"}) {
       p.name = name;
-      srv.request.config.bools.push_back(p);
+      request.bools.push_back(p);
     }
-    EXPECT_TRUE(ros::service::call(std::string(kNode) + "/set_parameters", srv));
     std::map<std::string, bool> got;
-    for (const auto& b : srv.response.config.bools) got[b.name] = b.value;
+    for (const auto& b : reconfigureNode(request).bools) got[b.name] = b.value;
     return got;
   };
   auto got = set(false);

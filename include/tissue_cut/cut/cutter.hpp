@@ -407,7 +407,7 @@ class Cutter {
   mutable std::vector<int> seen_scratch_;    // coarseOf()'s and coarseAround()'s pending tets
   mutable std::vector<int> points_scratch_;  // conforming()'s points
   ChangeRecord mesh_change_;                 // changeMesh()'s record, emptied before each use
-  std::vector<int> change_added_;            // changeMesh()'s new tets, emptied likewise
+  std::vector<int> change_added_;            // changeMesh()'s new tets where the caller keeps none
   // subdivide()'s and finalize()'s lists, kept for their room (finalize() calls subdivide()).
   TetSplit subdivide_split_, finalize_split_;
   std::vector<int> subdivide_ids_, subdivide_old_, finalize_ids_, finalize_from_;

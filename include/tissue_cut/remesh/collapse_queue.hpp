@@ -156,6 +156,12 @@ class CollapseQueue {
   std::vector<Entry> entries_;    // the heap's entries, by place
   std::vector<int> free_places_;  // places in entries_ of entries popped
   void push(const Entry& e);
+  // The entry's tet is gone (its slot may hold another tet), or its neighbourhood changed since
+  // it was queued.
+  bool gone(const Entry& e) const {
+    return !mesh_->tetAlive(e.tet) || mesh_->tet(e.tet) != e.verts;
+  }
+  bool stale(const Entry& e) const { return e.stamp != stampOf(e.verts); }
   const Entry& top() const { return entries_[heap_.top().entry]; }
   void pop() {
     free_places_.push_back(heap_.top().entry);

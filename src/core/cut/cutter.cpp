@@ -345,7 +345,7 @@ bool Cutter::changeMesh(const std::vector<int>& remove, const Make& make, Change
                         std::vector<int>* ids) {
   ChangeRecord& local = mesh_change_;  // (make() changes only the mesh: never nested)
   local.clear();
-  std::vector<int>& added = change_added_;
+  std::vector<int>& added = ids ? *ids : change_added_;  // the new tets, into the caller's list
   try {
     make(&local, &added);
   } catch (const std::logic_error& e) {
@@ -360,7 +360,6 @@ bool Cutter::changeMesh(const std::vector<int>& remove, const Make& make, Change
   stateChanged();
   refreshGrid(local);
   change->append(local);
-  if (ids) ids->assign(added.begin(), added.end());
   return true;
 }
 

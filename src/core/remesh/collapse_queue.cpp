@@ -396,14 +396,16 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
   // anew, those still busy and current stay aside too: busy() does not change within a call, so
   // each would only go round the heap back to here. The gone are dropped and the stale go back to
   // the heap, as the heap's own tests below would have them.
+  // (busy through a reference: std::any_of takes its predicate by value, and a std::function
+  // copy per entry cost more than the test.)
   auto anyBusy = [&](const TetVerts& tv) {
     return std::any_of(tv.begin(), tv.end(), [&](int v) { return busy(v); });
   };
   if (busy_changed) {
     std::size_t kept = 0;
     for (const Entry& e : waiting_) {
-      if (!mesh_->tetAlive(e.tet) || mesh_->tet(e.tet) != e.verts) continue;
-      if (e.stamp == stampOf(e.verts) && anyBusy(e.verts)) {
+      if (gone(e)) continue;
+      if (!stale(e) && anyBusy(e.verts)) {
         waiting_[kept++] = e;
       } else {
         push(e);
@@ -461,15 +463,13 @@ void CollapseQueue::process(const std::function<bool(int)>& busy,
     } else {
       pop();
     }
-    // Gone (its slot may hold another tet): dropped. Its neighbourhood changed since: queued
-    // again as it is now (touched() queues only the tets around the changed vertex itself).
-    if (!mesh_->tetAlive(e.tet) || mesh_->tet(e.tet) != e.verts) continue;
-    if (e.stamp != stampOf(e.verts)) {
+    // Gone: dropped. Stale: queued again as it is now (touched() queues only the tets around the
+    // changed vertex itself).
+    if (gone(e)) continue;
+    if (stale(e)) {
       queueTet(e.tet);
       continue;
     }
-    // (busy through a reference: std::any_of takes its predicate by value, and a std::function
-    // copy per entry cost more than the test.)
     if (anyBusy(e.verts)) {
       waiting_.push_back(e);
       continue;

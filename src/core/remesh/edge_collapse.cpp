@@ -58,8 +58,6 @@ double materialAngle(const TetMesh& mesh, int u, int v) {
   return sum;
 }
 
-// Whether `removed` may move onto `survivor` as far as the crack fronts through `removed` go:
-// a front vertex only along its front, which then shifts by at most the tolerance.
 // The fold edges at v (see foldNeighbours): each one's other end once, in the order found, to
 // add(u), which returns whether to go on looking; known(u) says whether u was added already.
 template <typename Known, typename Add>
@@ -93,6 +91,8 @@ void findFolds(const TetMesh& mesh, int v, const Known& known, const Add& add) {
         return;
 }
 
+// Whether `removed` may move onto `survivor` as far as the crack fronts through `removed` go:
+// a front vertex only along its front, which then shifts by at most the tolerance.
 bool frontKept(const TetMesh& mesh, int removed, int survivor, double shape_tolerance,
                double length_floor) {
   // Up to three folds, on the stack: a third already makes a corner.
