@@ -53,7 +53,8 @@ nlohmann::json Statistics::toJson() const {
               {"time_ms", cut.time_ms},
               {"refused", cut.refused},
               {"quiet_ticks", cut.quiet_ticks},
-              {"quiet_refreshes", cut.quiet_refreshes}};
+              {"quiet_refreshes", cut.quiet_refreshes},
+              {"edge_ticks", cut.edge_ticks}};
   j["collapse"] = {{"collapsed_edges", collapse.collapsed_edges},
                    {"removed_tetrahedra", collapse.removed_tetrahedra},
                    {"pending", collapse.pending},

@@ -80,6 +80,8 @@ struct CutCounts {
   /// Ticks whose quiet reach had run out and was taken anew without a sweep (the tick is then
   /// quiet unless it reaches a feature kept anew).
   long long quiet_refreshes = 0;
+  /// Ticks that reached kept edges alone and tested only those, not swept (skip_quiet).
+  long long edge_ticks = 0;
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
 };
 
@@ -157,7 +159,18 @@ class Cutter {
     int tet = -1;
   };
 
-  void sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change);
+  /// This tick's sweep from `from` to `to`: its vertices snapped and its edges crossed. With
+  /// `only_edges` (sorted, a < b), the edges the sweep would act on are among those: they alone
+  /// are tested, as the sweep tests them, and no vertex is (see step()).
+  void sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change,
+             const std::vector<std::pair<int, int>>* only_edges = nullptr);
+  /// The swept surface's normal at this tick (unit; the first triangle's unless it has no area).
+  Vec3 sweepNormal(const std::array<Triangle, 2>& tris) const;
+  /// The sweep's edge crossings: of the sweep's tets (sweep_corners_), or of `only`.
+  void crossEdges(const BladeSegment& from, const BladeSegment& to,
+                  const std::array<Triangle, 2>& tris,
+                  const std::array<PreparedTriangle, 2>& prepared, const Vec3& lo, const Vec3& hi,
+                  const std::vector<std::pair<int, int>>* only, ChangeRecord* change);
   void crossFront(const std::array<Vec3, 2>& front, const Vec3& inward, ChangeRecord* change);
   /// An edge's or a face's vertices.
   using Corners = InlineVector<int, 3>;
@@ -372,7 +385,12 @@ class Cutter {
   StampedTable<char> quiet_edges_met_;
   /// Whether this tick's sweep from `from` to `to` and its fronts leave alone every kept feature
   /// the moves since quiet_ref_, `moved` with this tick's, have reached.
-  bool watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved) const;
+  /// With `edges`, the reached edges that would cross are put there (sorted, each once) instead
+  /// of ending the test, and the answer is whether the tick reaches nothing else: a sweep of it
+  /// would then act on those edges alone (kept features that are not reached are left alone).
+  bool watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved,
+                    std::vector<std::pair<int, int>>* edges = nullptr) const;
+  std::vector<std::pair<int, int>> reached_edges_;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
   // Vertices of the tets and marks changed since separate() last ran (by the cutter or, through
   // follow(), by collapse): a waiting vertex is tried again only within two rings of one of them,

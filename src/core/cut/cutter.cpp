@@ -1243,7 +1243,8 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
   deferred_.insert(after.begin(), after.end());
 }
 
-void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change) {
+void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change,
+                   const std::vector<std::pair<int, int>>* only_edges) {
   const auto tris = sweptTriangles(from, to);
   const double tiny = 1e-12 * mean_edge_ * mean_edge_;
   if (triangleArea(tris[0]) <= tiny && triangleArea(tris[1]) <= tiny) return;
@@ -1253,6 +1254,10 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
   lo.array() -= snap_distance_;
   hi.array() += snap_distance_;
+  if (only_edges) {
+    crossEdges(from, to, tris, prepared, lo, hi, only_edges, change);
+    return;
+  }
   sweepQuery(from, to, lo, hi, &near_scratch_);
   std::vector<Coarse>& near = sweep_near_;
   coarseOf(near_scratch_, &near);
@@ -1364,9 +1369,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
         (gap <= wide && std::any_of(tv.begin(), tv.end(), [&](int v) { return onWound(v); })))
       corners.push_back(tv);
   }
-  Vec3 normal = (tris[0][1] - tris[0][0]).cross(tris[0][2] - tris[0][0]);
-  if (normal.norm() <= tiny) normal = (tris[1][1] - tris[1][0]).cross(tris[1][2] - tris[1][0]);
-  normal.normalize();
+  const Vec3 normal = sweepNormal(tris);
   // Each vertex once, in the order of the tets (a second look would decide the same); one
   // farther than both bands from both planes is near neither triangle (trySnap would do nothing).
   nextStamp(&vertex_seen_, &seen_stamp_, mesh_->vertexSlots());
@@ -1379,6 +1382,37 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       if (std::abs(at[8]) > band && std::abs(at[9]) > band) continue;
       trySnap(v, tris, prepared, normal);
     }
+  crossEdges(from, to, tris, prepared, lo, hi, nullptr, change);
+}
+
+Vec3 Cutter::sweepNormal(const std::array<Triangle, 2>& tris) const {
+  const double tiny = 1e-12 * mean_edge_ * mean_edge_;
+  Vec3 normal = (tris[0][1] - tris[0][0]).cross(tris[0][2] - tris[0][0]);
+  if (normal.norm() <= tiny) normal = (tris[1][1] - tris[1][0]).cross(tris[1][2] - tris[1][0]);
+  normal.normalize();
+  return normal;
+}
+
+void Cutter::crossEdges(const BladeSegment& from, const BladeSegment& to,
+                        const std::array<Triangle, 2>& tris,
+                        const std::array<PreparedTriangle, 2>& prepared, const Vec3& lo,
+                        const Vec3& hi, const std::vector<std::pair<int, int>>* only,
+                        ChangeRecord* change) {
+  // The edges of the sweep's tets (sweep_corners_, their vertices' plane distances in
+  // axis_values_), or those of `only` (the kept features a quiet tick's moves reached: the
+  // sweep would act on no other edge), with their plane distances taken here as the sweep takes
+  // them (the same operations: the same values).
+  const double tiny = 1e-12 * mean_edge_ * mean_edge_;
+  const Vec3 normal = sweepNormal(tris);
+  std::array<Vec3, 2> plane_n;
+  std::array<double, 2> plane_len;
+  for (int k = 0; k < 2; ++k) {
+    plane_n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
+    plane_len[k] = plane_n[k].norm();
+  }
+  auto planeDistance = [&](int k, const Vec3& x) {
+    return plane_len[k] > 0 ? plane_n[k].dot(x - tris[k][0]) / plane_len[k] : HUGE_VAL;
+  };
   // An edge can cross the swept quad only where its box meets the quad's box, and only when its
   // ends lie strictly on opposite sides of a usable triangle's plane (segmentCrossesTriangle).
   const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_);
@@ -1391,11 +1425,11 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   }
   // The tests in order of cost (all must hold; most edges of the corners lie on one side).
   auto mayCross = [&](int a, int b) {
-    const auto &at_a = axis_values_[axis_slot_[a]], &at_b = axis_values_[axis_slot_[b]];
     bool opposite = false;
     for (int k = 0; k < 2 && !opposite; ++k) {
       if (!crossable[k]) continue;
-      const double dp = at_a[8 + k], dq = at_b[8 + k];
+      const double dp = only ? planeDistance(k, mesh_->current(a)) : axis_values_[axis_slot_[a]][8 + k];
+      const double dq = only ? planeDistance(k, mesh_->current(b)) : axis_values_[axis_slot_[b]][8 + k];
       opposite = (dp > 0 && dq < 0) || (dp < 0 && dq > 0);
     }
     if (!opposite) return false;
@@ -1408,11 +1442,16 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   // The edges that may cross, in increasing order, each once (as a std::set would give them).
   std::vector<std::pair<int, int>>& edges = edge_scratch_;
   edges.clear();
-  for (const TetVerts& tv : corners)
-    for (const auto& e : kTetEdge) {
-      const int a = std::min(tv[e[0]], tv[e[1]]), b = std::max(tv[e[0]], tv[e[1]]);
+  if (only) {
+    for (const auto& [a, b] : *only)
       if (mayCross(a, b)) edges.emplace_back(a, b);
-    }
+  } else {
+    for (const TetVerts& tv : sweep_corners_)
+      for (const auto& e : kTetEdge) {
+        const int a = std::min(tv[e[0]], tv[e[1]]), b = std::max(tv[e[0]], tv[e[1]]);
+        if (mayCross(a, b)) edges.emplace_back(a, b);
+      }
+  }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   // The ribbon's own edges (the tip's and base's paths, and the blade where the stroke began)
@@ -1618,7 +1657,8 @@ double Cutter::quietReach(const BladeSegment& at) {
   return quiet_reach_;
 }
 
-bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved) const {
+bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved,
+                          std::vector<std::pair<int, int>>* edges) const {
   // The tests sweep(), trySnap() and crossFront() make before they act, on the kept features the
   // moves have reached (each test a little wider: the sweep's own filters may leave a feature
   // out, never in). Each triangle's plane first, computed as those tests compute it: a feature
@@ -1653,6 +1693,7 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
   }
   double s;
   Vec3 bary;
+  if (edges) edges->clear();
   for (const QuietEdge& q : quiet_edges_) {
     if (q.at > reached) break;
     if (onCut(q.a) || onCut(q.b) || !mesh_->vertexAlive(q.a) || !mesh_->vertexAlive(q.b)) continue;
@@ -1662,9 +1703,16 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
       const double da = prepared[k].n.dot(pa - tris[k][0]);
       const double db = prepared[k].n.dot(pb - tris[k][0]);
       if (((da > 0 && db < 0) || (da < 0 && db > 0)) &&
-          segmentCrossesTriangle(pa, pb, prepared[k], 1e-9, &s, &bary))
-        return false;
+          segmentCrossesTriangle(pa, pb, prepared[k], 1e-9, &s, &bary)) {
+        if (!edges) return false;
+        edges->emplace_back(q.a, q.b);
+        break;
+      }
     }
+  }
+  if (edges) {  // an edge may be kept twice, from two batches
+    std::sort(edges->begin(), edges->end());
+    edges->erase(std::unique(edges->begin(), edges->end()), edges->end());
   }
   // crossFront()'s two paths this tick, each moved along the blade toward the other end.
   auto crossed = [&](const std::vector<QuietFace>& faces, const Vec3& from_end, const Vec3& to_end,
@@ -1819,7 +1867,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
       joinNearCache(refiled_);
     }
   }
-  bool swept = false, quiet = false;  // the blade moves on in its stroke; unswept
+  // The blade moves on in its stroke; unswept; only the kept edges it reached tested.
+  bool swept = false, quiet = false, edges_only = false;
   auto endStroke = [&] {
     crossFront({{previous_->base, previous_->tip}}, last_motion_, change);
     finalizeLeft(std::nullopt, change, true);
@@ -1863,38 +1912,47 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
       quiet_valid_ = quietReach(*previous_) > 0.0;
       quiet_moved_ = 0.0;
     }
-    quiet = options_.skip_quiet && quiet_valid_ && told_motion_ && !stroke_start_ &&
-            quiet_moved_ + step < quiet_reach_ &&
-            watchedQuiet(*previous_, *blade, quiet_moved_ + step);
+    // A tick that reaches kept edges alone (no kept vertex or face) tests only those, as the
+    // sweep would: the sweep would act on no other feature, and it takes them in the same order
+    // (see crossEdges()). The fronts cross no face then.
+    const bool watched = options_.skip_quiet && quiet_valid_ && told_motion_ && !stroke_start_ &&
+                         quiet_moved_ + step < quiet_reach_ &&
+                         watchedQuiet(*previous_, *blade, quiet_moved_ + step, &reached_edges_);
+    quiet = watched && reached_edges_.empty();
+    edges_only = watched && !quiet;
     quiet_moved_ += step;
-    if (quiet) {
-      ++counts_.quiet_ticks;
-      if (!options_.check_quiet) {
-        gap_blade_ += step;
-        gap_last_ = *blade;
-      }
+    if (quiet) ++counts_.quiet_ticks;
+    if (edges_only) ++counts_.edge_ticks;
+    if ((quiet || edges_only) && !options_.check_quiet) {
+      gap_blade_ += step;
+      gap_last_ = *blade;
     }
-    // What a sweep may change, to check that a quiet tick's would have changed none of it.
-    const bool check = quiet && options_.check_quiet;
+    if (edges_only) sweep(*previous_, *blade, change, &reached_edges_);
+    // What a sweep may change, to check that a quiet tick's, or an edges-only tick's after its
+    // edges, would have changed none of it.
+    const bool check = (quiet || edges_only) && options_.check_quiet;
     const int slots = mesh_->vertexSlots();
     const std::size_t pending = pending_.size(), kept = kept_off_.size(), stood = stood_for_.size();
     const std::vector<unsigned char> flags = check ? wound_flag_ : std::vector<unsigned char>{};
     // Sweep and fronts only add points and mark tets pending; no tet is replaced until
     // finalizeLeft(), so the fronts may reuse the sweep's search.
-    if (!quiet || check) sweep(*previous_, *blade, change);
+    const bool full = !(quiet || edges_only) || check;
+    if (full) sweep(*previous_, *blade, change);
     const Vec3 motion = 0.5 * ((blade->base - previous_->base) + (blade->tip - previous_->tip));
     if (motion.norm() > 1e-9 * mean_edge_) last_motion_ = motion;
     const auto tris = sweptTriangles(*previous_, *blade);
     if (triangleArea(tris[0]) + triangleArea(tris[1]) > 1e-12 * mean_edge_ * mean_edge_)
       stroke_start_ = false;
-    if (!quiet || check) {
+    if (full) {
       crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
       crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
     }
     swept_valid_ = false;
     if (check && (mesh_->vertexSlots() != slots || pending_.size() != pending ||
                   kept_off_.size() != kept || stood_for_.size() != stood || wound_flag_ != flags))
-      throw std::logic_error("Cutter: the sweep of a tick left unswept as quiet changed the cut");
+      throw std::logic_error(
+          quiet ? "Cutter: the sweep of a tick left unswept as quiet changed the cut"
+                : "Cutter: the sweep of a tick that tested its reached edges alone changed the cut");
   }
   previous_ = blade;
   finalizeLeft(blade, change);
@@ -1904,6 +1962,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   // them). A lift or a new stroke looks afresh.
   if (swept && !quiet && options_.skip_quiet &&
       !(quiet_valid_ && quiet_moved_ < 0.5 * quiet_reach_)) {
+    // The gaps as a sweep would have left them (an edges-only tick took none).
+    if (edges_only && gapsRetaken(*blade, 0.0)) retakeGaps(*blade);
     quiet_valid_ = quietReach(*blade) > 0.0;
     quiet_moved_ = 0.0;
   } else if (!swept) {
