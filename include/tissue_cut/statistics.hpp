@@ -56,7 +56,7 @@ struct Statistics {
     int refused = 0;             ///< replacements the mesh refused (cut left closed there)
     long long quiet_ticks = 0;   ///< ticks the blade moved on that needed no sweep (skip_quiet)
     long long quiet_refreshes = 0;  ///< ticks its quiet reach ran out and was taken anew, unswept
-    long long edge_ticks = 0;  ///< ticks that reached kept edges alone and tested only those
+    long long feature_ticks = 0;  ///< ticks that tested only the kept features they reached
   } cut;
   struct {
     int collapsed_edges = 0, removed_tetrahedra = 0, pending = 0;  ///< #RmT = removed_tetrahedra

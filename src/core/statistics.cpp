@@ -54,7 +54,7 @@ nlohmann::json Statistics::toJson() const {
               {"refused", cut.refused},
               {"quiet_ticks", cut.quiet_ticks},
               {"quiet_refreshes", cut.quiet_refreshes},
-              {"edge_ticks", cut.edge_ticks}};
+              {"feature_ticks", cut.feature_ticks}};
   j["collapse"] = {{"collapsed_edges", collapse.collapsed_edges},
                    {"removed_tetrahedra", collapse.removed_tetrahedra},
                    {"pending", collapse.pending},

@@ -280,7 +280,7 @@ Statistics Tissue::statistics() const {
   s.cut.refused = cutter_->counts().refused;
   s.cut.quiet_ticks = cutter_->counts().quiet_ticks;
   s.cut.quiet_refreshes = cutter_->counts().quiet_refreshes;
-  s.cut.edge_ticks = cutter_->counts().edge_ticks;
+  s.cut.feature_ticks = cutter_->counts().feature_ticks;
   const CollapseCounts& c = collapse_->counts();
   s.collapse.collapsed_edges = c.collapsed_edges;
   s.collapse.removed_tetrahedra = c.removed_tetrahedra;

@@ -793,10 +793,11 @@ CutCounts cutQuietly(const std::vector<BladeSegment>& blades, bool skip, bool ch
 }  // namespace
 
 // A tick whose blade cannot have come near anything a sweep acts on is not swept
-// (CutterOptions::skip_quiet), and one that reaches kept edges alone tests only those: the cut
-// must be the same as when every tick sweeps, to the slot, and check_quiet, which sweeps those
-// ticks too, must find that they would have changed nothing (more). Strokes out and back over the block trembling 30 um and 0.3 mm a tick, the first
-// also over the block bending under the blade.
+// (CutterOptions::skip_quiet), and one that reaches at most one kept vertex tests only the kept
+// features it reached: the cut must be the same as when every tick sweeps, to the slot, and
+// check_quiet, which sweeps those ticks too, must find that they would have changed nothing
+// (more). Strokes out and back over the block trembling 30 um and 0.3 mm a tick, the first also
+// over the block bending under the blade.
 TEST(Cutting, QuietTicksCutAsSweptOnes) {
   const MeshData block = makeBlock();
   struct Case {
@@ -812,20 +813,20 @@ TEST(Cutting, QuietTicksCutAsSweptOnes) {
     CutCounts checks;
     EXPECT_NO_THROW(checks = cutQuietly(blades, true, true, c.bend, &checked));
     std::printf("tremble %g m%s: %lld of %zu ticks quiet; %lld quiet reaches taken anew "
-                "without a sweep (%lld checked); %lld ticks tested their reached edges alone "
+                "without a sweep (%lld checked); %lld ticks tested their reached features alone "
                 "(%lld checked)\n",
                 c.sigma, c.bend ? ", bending" : "", a.quiet_ticks, blades.size(),
-                a.quiet_refreshes, checks.quiet_refreshes, a.edge_ticks, checks.edge_ticks);
+                a.quiet_refreshes, checks.quiet_refreshes, a.feature_ticks, checks.feature_ticks);
     EXPECT_GT(a.cut_tetrahedra, 100);
     EXPECT_EQ(b.quiet_ticks, 0);
     EXPECT_GT(checks.quiet_ticks, 0);  // some (its sweeps leave the searches' bounds fresher)
     EXPECT_GT(a.quiet_refreshes, 0);
     EXPECT_GT(checks.quiet_refreshes, 0);  // those ticks' sweeps checked too
-    // Ticks that reached kept edges alone crossed those alone, and a sweep after found nothing
+    // Ticks that reached kept features tested those alone, and a sweep after found nothing
     // more to do (check_quiet).
-    EXPECT_GT(a.edge_ticks, 0);
-    EXPECT_GT(checks.edge_ticks, 0);
-    EXPECT_EQ(b.edge_ticks, 0);
+    EXPECT_GT(a.feature_ticks, 0);
+    EXPECT_GT(checks.feature_ticks, 0);
+    EXPECT_EQ(b.feature_ticks, 0);
     EXPECT_EQ(a.cut_tetrahedra, b.cut_tetrahedra);
     EXPECT_EQ(a.created_tetrahedra, b.created_tetrahedra);
     EXPECT_EQ(a.separated_vertices, b.separated_vertices);

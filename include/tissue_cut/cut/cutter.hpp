@@ -53,15 +53,17 @@ struct CutterOptions {
   /// A tick whose blade, and the tissue as told (tissueMoved), has moved less since the last
   /// tick that swept than the distance from the blade then to anything a sweep could act on,
   /// except a few features tested on their own each tick (quietReach()), is not swept: it would
-  /// make no point, snap no vertex and cross no face. The same cut, less work; false sweeps every
-  /// tick (for comparison), as does a cutter never told how far the tissue moves.
+  /// make no point, snap no vertex and cross no face. A tick that reaches some of those features
+  /// (at most one vertex) tests those alone, as the sweep would. The same cut, less work; false
+  /// sweeps every tick (for comparison), as does a cutter never told how far the tissue moves.
   bool skip_quiet = true;
   /// How far the blade may move before the features kept for the quiet ticks are taken anew
   /// (around the blade where the last tick left it; that tick is then swept only if it reaches
   /// one of them), as a fraction of the mean edge.
   double quiet_reach = 0.1;
-  /// Sweeps the quiet ticks too and throws std::logic_error where that changed the cut (for
-  /// tests: the same cut either way, or a quiet tick was wrongly left unswept).
+  /// Sweeps the quiet ticks too, and the ticks that tested only the kept features they reached
+  /// (after those), and throws std::logic_error where that changed the cut (for tests: the same
+  /// cut either way, or a tick was wrongly left unswept).
   bool check_quiet = false;
 };
 
@@ -80,8 +82,9 @@ struct CutCounts {
   /// Ticks whose quiet reach had run out and was taken anew without a sweep (the tick is then
   /// quiet unless it reaches a feature kept anew).
   long long quiet_refreshes = 0;
-  /// Ticks that reached kept edges alone and tested only those, not swept (skip_quiet).
-  long long edge_ticks = 0;
+  /// Ticks that reached at most one kept vertex and tested only the kept features they reached
+  /// (that vertex, edges, front faces), not swept (skip_quiet).
+  long long feature_ticks = 0;
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
 };
 
@@ -159,11 +162,21 @@ class Cutter {
     int tet = -1;
   };
 
+  /// What a tick's moves reached of the kept features and the sweep's tests would pass: the
+  /// sweep and the fronts would act on no other feature (see step()).
+  struct Reached {
+    int vertex = -1;    // the one vertex trySnap() may snap (-1: none)
+    bool more = false;  // more than one such vertex
+    std::vector<std::pair<int, int>> edges;  // the edges that would cross (sorted, each once)
+    bool faces = false;                      // a face a front would cross
+    bool none() const { return vertex < 0 && !more && edges.empty() && !faces; }
+  };
+
   /// This tick's sweep from `from` to `to`: its vertices snapped and its edges crossed. With
-  /// `only_edges` (sorted, a < b), the edges the sweep would act on are among those: they alone
-  /// are tested, as the sweep tests them, and no vertex is (see step()).
+  /// `only`, the features the sweep would act on are among those: they alone are tested, as
+  /// the sweep tests them and in its order (see step()).
   void sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change,
-             const std::vector<std::pair<int, int>>* only_edges = nullptr);
+             const Reached* only = nullptr);
   /// The swept surface's normal at this tick (unit; the first triangle's unless it has no area).
   Vec3 sweepNormal(const std::array<Triangle, 2>& tris) const;
   /// The sweep's edge crossings: of the sweep's tets (sweep_corners_), or of `only`.
@@ -385,12 +398,11 @@ class Cutter {
   StampedTable<char> quiet_edges_met_;
   /// Whether this tick's sweep from `from` to `to` and its fronts leave alone every kept feature
   /// the moves since quiet_ref_, `moved` with this tick's, have reached.
-  /// With `edges`, the reached edges that would cross are put there (sorted, each once) instead
-  /// of ending the test, and the answer is whether the tick reaches nothing else: a sweep of it
-  /// would then act on those edges alone (kept features that are not reached are left alone).
+  /// With `out`, the test goes on past the first such feature and notes them there (it stops at
+  /// a second vertex), and the answer is out->none().
   bool watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved,
-                    std::vector<std::pair<int, int>>* edges = nullptr) const;
-  std::vector<std::pair<int, int>> reached_edges_;
+                    Reached* out = nullptr) const;
+  Reached reached_;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
   // Vertices of the tets and marks changed since separate() last ran (by the cutter or, through
   // follow(), by collapse): a waiting vertex is tried again only within two rings of one of them,

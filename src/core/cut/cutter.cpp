@@ -1244,7 +1244,7 @@ void Cutter::separate(std::vector<int>* touched_io, bool all_waiting, ChangeReco
 }
 
 void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecord* change,
-                   const std::vector<std::pair<int, int>>* only_edges) {
+                   const Reached* only) {
   const auto tris = sweptTriangles(from, to);
   const double tiny = 1e-12 * mean_edge_ * mean_edge_;
   if (triangleArea(tris[0]) <= tiny && triangleArea(tris[1]) <= tiny) return;
@@ -1254,8 +1254,10 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
   lo.array() -= snap_distance_;
   hi.array() += snap_distance_;
-  if (only_edges) {
-    crossEdges(from, to, tris, prepared, lo, hi, only_edges, change);
+  if (only) {
+    // The one vertex first, as the sweep snaps its vertices before it crosses edges.
+    if (only->vertex >= 0) trySnap(only->vertex, tris, prepared, sweepNormal(tris));
+    if (!only->edges.empty()) crossEdges(from, to, tris, prepared, lo, hi, &only->edges, change);
     return;
   }
   sweepQuery(from, to, lo, hi, &near_scratch_);
@@ -1399,9 +1401,10 @@ void Cutter::crossEdges(const BladeSegment& from, const BladeSegment& to,
                         const Vec3& hi, const std::vector<std::pair<int, int>>* only,
                         ChangeRecord* change) {
   // The edges of the sweep's tets (sweep_corners_, their vertices' plane distances in
-  // axis_values_), or those of `only` (the kept features a quiet tick's moves reached: the
-  // sweep would act on no other edge), with their plane distances taken here as the sweep takes
-  // them (the same operations: the same values).
+  // axis_values_), or those of `only` (the kept edges a targeted tick reached: the sweep would
+  // act on no other edge), with their plane distances taken here as the sweep takes them (the
+  // same operations: the same values). Either way in increasing order, so that the points are
+  // made in the same order.
   const double tiny = 1e-12 * mean_edge_ * mean_edge_;
   const Vec3 normal = sweepNormal(tris);
   std::array<Vec3, 2> plane_n;
@@ -1428,8 +1431,10 @@ void Cutter::crossEdges(const BladeSegment& from, const BladeSegment& to,
     bool opposite = false;
     for (int k = 0; k < 2 && !opposite; ++k) {
       if (!crossable[k]) continue;
-      const double dp = only ? planeDistance(k, mesh_->current(a)) : axis_values_[axis_slot_[a]][8 + k];
-      const double dq = only ? planeDistance(k, mesh_->current(b)) : axis_values_[axis_slot_[b]][8 + k];
+      const double dp =
+          only ? planeDistance(k, mesh_->current(a)) : axis_values_[axis_slot_[a]][8 + k];
+      const double dq =
+          only ? planeDistance(k, mesh_->current(b)) : axis_values_[axis_slot_[b]][8 + k];
       opposite = (dp > 0 && dq < 0) || (dp < 0 && dq > 0);
     }
     if (!opposite) return false;
@@ -1658,7 +1663,7 @@ double Cutter::quietReach(const BladeSegment& at) {
 }
 
 bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved,
-                          std::vector<std::pair<int, int>>* edges) const {
+                          Reached* out) const {
   // The tests sweep(), trySnap() and crossFront() make before they act, on the kept features the
   // moves have reached (each test a little wider: the sweep's own filters may leave a feature
   // out, never in). Each triangle's plane first, computed as those tests compute it: a feature
@@ -1674,6 +1679,22 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
   Vec3 normal = prepared[0].n;
   if (normal.norm() <= tiny) normal = prepared[1].n;
   normal.normalize();
+  if (out) {
+    out->vertex = -1;
+    out->more = false;
+    out->edges.clear();
+    out->faces = false;
+  }
+  // A vertex passing: the first is noted; a second (another vertex) ends the test.
+  auto vertexPasses = [&](int v) {
+    if (!out) return true;
+    if (out->vertex < 0 || out->vertex == v) {
+      out->vertex = v;
+      return false;
+    }
+    out->more = true;
+    return true;
+  };
   for (const QuietVertex& q : quiet_verts_) {
     if (q.at > reached) break;
     const int v = q.v;
@@ -1681,19 +1702,20 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     const Vec3& x = mesh_->current(v);
     if ((!onWound(v) && nearTrailingLine(x, tris)) ||
         (nearPlane(0, x, snap_distance_) && pointNearTriangle(x, prepared[0], snap_distance_)) ||
-        (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, prepared[1], snap_distance_)))
-      return false;
+        (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, prepared[1], snap_distance_))) {
+      if (vertexPasses(v)) return false;
+      continue;
+    }
     if (onWound(v) &&
         ((nearPlane(0, x, wound_snap_distance_) &&
           pointNearTriangle(x, prepared[0], wound_snap_distance_)) ||
          (nearPlane(1, x, wound_snap_distance_) &&
           pointNearTriangle(x, prepared[1], wound_snap_distance_))) &&
-        woundFacing(v, normal))
+        woundFacing(v, normal) && vertexPasses(v))
       return false;
   }
   double s;
   Vec3 bary;
-  if (edges) edges->clear();
   for (const QuietEdge& q : quiet_edges_) {
     if (q.at > reached) break;
     if (onCut(q.a) || onCut(q.b) || !mesh_->vertexAlive(q.a) || !mesh_->vertexAlive(q.b)) continue;
@@ -1704,15 +1726,15 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
       const double db = prepared[k].n.dot(pb - tris[k][0]);
       if (((da > 0 && db < 0) || (da < 0 && db > 0)) &&
           segmentCrossesTriangle(pa, pb, prepared[k], 1e-9, &s, &bary)) {
-        if (!edges) return false;
-        edges->emplace_back(q.a, q.b);
+        if (!out) return false;
+        out->edges.emplace_back(q.a, q.b);
         break;
       }
     }
   }
-  if (edges) {  // an edge may be kept twice, from two batches
-    std::sort(edges->begin(), edges->end());
-    edges->erase(std::unique(edges->begin(), edges->end()), edges->end());
+  if (out) {  // an edge may be kept twice, from two batches
+    std::sort(out->edges.begin(), out->edges.end());
+    out->edges.erase(std::unique(out->edges.begin(), out->edges.end()), out->edges.end());
   }
   // crossFront()'s two paths this tick, each moved along the blade toward the other end.
   auto crossed = [&](const std::vector<QuietFace>& faces, const Vec3& from_end, const Vec3& to_end,
@@ -1730,8 +1752,11 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     }
     return false;
   };
-  return !crossed(quiet_faces_, from.tip, to.tip, to.base - to.tip) &&
-         !crossed(quiet_base_faces_, from.base, to.base, to.tip - to.base);
+  const bool faces = crossed(quiet_faces_, from.tip, to.tip, to.base - to.tip) ||
+                     crossed(quiet_base_faces_, from.base, to.base, to.tip - to.base);
+  if (!out) return !faces;
+  out->faces = faces;
+  return out->none();
 }
 
 void Cutter::crossFront(const std::array<Vec3, 2>& front, const Vec3& inward,
@@ -1867,8 +1892,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
       joinNearCache(refiled_);
     }
   }
-  // The blade moves on in its stroke; unswept; only the kept edges it reached tested.
-  bool swept = false, quiet = false, edges_only = false;
+  // The blade moves on in its stroke; unswept; only the kept features it reached tested.
+  bool swept = false, quiet = false, targeted = false;
   auto endStroke = [&] {
     crossFront({{previous_->base, previous_->tip}}, last_motion_, change);
     finalizeLeft(std::nullopt, change, true);
@@ -1912,31 +1937,37 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
       quiet_valid_ = quietReach(*previous_) > 0.0;
       quiet_moved_ = 0.0;
     }
-    // A tick that reaches kept edges alone (no kept vertex or face) tests only those, as the
-    // sweep would: the sweep would act on no other feature, and it takes them in the same order
-    // (see crossEdges()). The fronts cross no face then.
-    const bool watched = options_.skip_quiet && quiet_valid_ && told_motion_ && !stroke_start_ &&
-                         quiet_moved_ + step < quiet_reach_ &&
-                         watchedQuiet(*previous_, *blade, quiet_moved_ + step, &reached_edges_);
-    quiet = watched && reached_edges_.empty();
-    edges_only = watched && !quiet;
+    // A tick that reaches at most one kept vertex tests only the kept features it reached, as
+    // the sweep and the fronts would and in their order: that vertex, then the edges (in the
+    // sweep's order, see crossEdges()), then the fronts' faces (their own search then). The
+    // sweep and the fronts would act on no other feature.
+    const bool watchable = options_.skip_quiet && quiet_valid_ && told_motion_ &&
+                           !stroke_start_ && quiet_moved_ + step < quiet_reach_;
+    quiet = watchable && watchedQuiet(*previous_, *blade, quiet_moved_ + step, &reached_);
+    targeted = watchable && !quiet && !reached_.more;
     quiet_moved_ += step;
     if (quiet) ++counts_.quiet_ticks;
-    if (edges_only) ++counts_.edge_ticks;
-    if ((quiet || edges_only) && !options_.check_quiet) {
+    if (targeted) ++counts_.feature_ticks;
+    if ((quiet || targeted) && !options_.check_quiet) {
       gap_blade_ += step;
       gap_last_ = *blade;
     }
-    if (edges_only) sweep(*previous_, *blade, change, &reached_edges_);
-    // What a sweep may change, to check that a quiet tick's, or an edges-only tick's after its
-    // edges, would have changed none of it.
-    const bool check = (quiet || edges_only) && options_.check_quiet;
+    if (targeted) {
+      sweep(*previous_, *blade, change, &reached_);
+      if (reached_.faces) {
+        crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
+        crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
+      }
+    }
+    // What a sweep may change, to check that a quiet tick's, or a targeted one's after its
+    // features, would have changed none of it.
+    const bool check = (quiet || targeted) && options_.check_quiet;
     const int slots = mesh_->vertexSlots();
     const std::size_t pending = pending_.size(), kept = kept_off_.size(), stood = stood_for_.size();
     const std::vector<unsigned char> flags = check ? wound_flag_ : std::vector<unsigned char>{};
     // Sweep and fronts only add points and mark tets pending; no tet is replaced until
     // finalizeLeft(), so the fronts may reuse the sweep's search.
-    const bool full = !(quiet || edges_only) || check;
+    const bool full = !(quiet || targeted) || check;
     if (full) sweep(*previous_, *blade, change);
     const Vec3 motion = 0.5 * ((blade->base - previous_->base) + (blade->tip - previous_->tip));
     if (motion.norm() > 1e-9 * mean_edge_) last_motion_ = motion;
@@ -1952,7 +1983,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
                   kept_off_.size() != kept || stood_for_.size() != stood || wound_flag_ != flags))
       throw std::logic_error(
           quiet ? "Cutter: the sweep of a tick left unswept as quiet changed the cut"
-                : "Cutter: the sweep of a tick that tested its reached edges alone changed the cut");
+                : "Cutter: the sweep of a tick that tested its reached features alone changed "
+                  "the cut");
   }
   previous_ = blade;
   finalizeLeft(blade, change);
@@ -1962,8 +1994,8 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   // them). A lift or a new stroke looks afresh.
   if (swept && !quiet && options_.skip_quiet &&
       !(quiet_valid_ && quiet_moved_ < 0.5 * quiet_reach_)) {
-    // The gaps as a sweep would have left them (an edges-only tick took none).
-    if (edges_only && gapsRetaken(*blade, 0.0)) retakeGaps(*blade);
+    // The gaps as a sweep would have left them (a targeted tick took none).
+    if (targeted && gapsRetaken(*blade, 0.0)) retakeGaps(*blade);
     quiet_valid_ = quietReach(*blade) > 0.0;
     quiet_moved_ = 0.0;
   } else if (!swept) {
