@@ -1990,12 +1990,11 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   finalizeLeft(blade, change);
   // After a tick swept because the quiet reach ran out (or was not known), the features near
   // the blade are taken anew; one swept for a kept feature keeps them while half the reach is
-  // left (the cut's state changed, which only makes features inert; tets a change adds joined
-  // them). A lift or a new stroke looks afresh.
-  if (swept && !quiet && options_.skip_quiet &&
+  // left, and one that acted on its kept features alone keeps them until the reach runs out (the
+  // cut's state changed, which only makes features inert; tets a change adds joined them). A lift
+  // or a new stroke looks afresh.
+  if (swept && !quiet && !targeted && options_.skip_quiet &&
       !(quiet_valid_ && quiet_moved_ < 0.5 * quiet_reach_)) {
-    // The gaps as a sweep would have left them (a targeted tick took none).
-    if (targeted && gapsRetaken(*blade, 0.0)) retakeGaps(*blade);
     quiet_valid_ = quietReach(*blade) > 0.0;
     quiet_moved_ = 0.0;
   } else if (!swept) {
