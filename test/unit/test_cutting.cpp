@@ -11,6 +11,7 @@
 #include <numeric>
 #include <random>
 
+#include "../property/random_incision.hpp"
 #include "tissue_cut/cut/cutter.hpp"
 #include "tissue_cut/cut/scalpel_path.hpp"
 #include "tissue_cut/cut/sweep.hpp"
@@ -833,6 +834,49 @@ TEST(Cutting, QuietTicksCutAsSweptOnes) {
     expectSameMesh(quiet, swept);
     expectSameMesh(quiet, checked);
   }
+}
+
+// The same over random incisions of the project's TetGen sphere and Gmsh ellipsoid (the property
+// tests' generator: strokes that start or stop inside, tilted, curved, trembling): skipping the
+// quiet ticks and acting on the reached features alone leave the mesh as sweeping every tick
+// does, to the slot, and check_quiet finds nothing those ticks missed.
+TEST(Cutting, QuietAndFeatureTicksCutAsSweptOnesOnRandomIncisions) {
+  long long quiet = 0, features = 0, ticks = 0;
+  for (const std::string name : {"sphere_tetgen.node", "ellipsoid_v22.msh"}) {
+    const MeshData mesh = readMesh(std::string(TISSUE_CUT_SOURCE_DIR) + "/meshes/" + name);
+    for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+      const property::RandomIncision incision = property::randomIncision(mesh, seed);
+      SCOPED_TRACE(name + ", seed " + std::to_string(seed) + ": " + incision.description);
+      const ScalpelPath path(incision.poses);
+      const double dt = 1.0 / incision.rate;
+      std::vector<BladeSegment> blades;
+      for (double t = path.startTime(); t <= path.endTime(); t += dt) {
+        const ToolPose pose = path.at(t);
+        blades.push_back(bladeFromPose(pose.position, pose.orientation, incision.blade_length));
+      }
+      auto cut = [&](bool skip, bool check, TetMesh* m) {
+        CutterOptions options;
+        options.skip_quiet = skip;
+        options.check_quiet = check;
+        return cutAlong(blades, options, m);
+      };
+      TetMesh skipped(mesh.V, mesh.T), swept(mesh.V, mesh.T), checked(mesh.V, mesh.T);
+      const CutCounts a = cut(true, false, &skipped);
+      const CutCounts b = cut(false, false, &swept);
+      EXPECT_NO_THROW(cut(true, true, &checked));
+      EXPECT_EQ(b.quiet_ticks + b.feature_ticks, 0);
+      EXPECT_EQ(a.cut_tetrahedra, b.cut_tetrahedra);
+      expectSameMesh(skipped, swept);
+      expectSameMesh(skipped, checked);
+      quiet += a.quiet_ticks;
+      features += a.feature_ticks;
+      ticks += static_cast<long long>(blades.size());
+    }
+  }
+  std::printf("%lld ticks: %lld quiet, %lld acted on their reached features alone\n", ticks, quiet,
+              features);
+  EXPECT_GT(quiet, ticks / 4);
+  EXPECT_GT(features, 100);
 }
 
 // A cutter never told how far the tissue moves (tissueMoved) must assume that anything may have

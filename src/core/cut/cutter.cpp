@@ -16,6 +16,23 @@ namespace tissue_cut {
 
 namespace {
 
+// The planes of the two swept triangles, and the signed distance of x from plane k computed as
+// pointNearTriangle and segmentCrossesTriangle compute it (the same operations: the same value).
+struct SweptPlanes {
+  explicit SweptPlanes(const std::array<Triangle, 2>& t) : tris(t) {
+    for (int k = 0; k < 2; ++k) {
+      n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
+      len[k] = n[k].norm();
+    }
+  }
+  double distance(int k, const Vec3& x) const {
+    return len[k] > 0 ? n[k].dot(x - tris[k][0]) / len[k] : HUGE_VAL;
+  }
+  const std::array<Triangle, 2>& tris;
+  std::array<Vec3, 2> n;
+  std::array<double, 2> len;
+};
+
 void renameIn(TetCut* cut, int from, int to) {
   for (int& v : cut->corner)
     if (v == from) v = to;
@@ -1307,17 +1324,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
     // segmentCrossesTriangle lets barycentric coordinates down to -1e-9 through.
     side_tol[k] = 1e-6 * longest + tol;
   }
-  // The signed distance of x from the plane of swept triangle k, computed as pointNearTriangle
-  // and segmentCrossesTriangle compute it (the same operations: the same value).
-  std::array<Vec3, 2> plane_n;
-  std::array<double, 2> plane_len;
-  for (int k = 0; k < 2; ++k) {
-    plane_n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
-    plane_len[k] = plane_n[k].norm();
-  }
-  auto planeDistance = [&](int k, const Vec3& x) {
-    return plane_len[k] > 0 ? plane_n[k].dot(x - tris[k][0]) / plane_len[k] : HUGE_VAL;
-  };
+  const SweptPlanes planes(tris);
   // Each vertex's place along the eight axes and its distances from the two planes, taken once a
   // tick (the near tets share most of their vertices; the sweep moves none): per vertex slot,
   // where its values are in axis_values_.
@@ -1333,8 +1340,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       for (int k = 0; k < 2; ++k)
         if (usable[k])
           for (int e = 0; e < 4; ++e) at[4 * k + e] = axes[k][e].n.dot(x) - axes[k][e].at;
-      at[8] = planeDistance(0, x);
-      at[9] = planeDistance(1, x);
+      at[8] = planes.distance(0, x);
+      at[9] = planes.distance(1, x);
       axis_values_.push_back(at);
     }
     return axis_slot_[v];
@@ -1407,15 +1414,7 @@ void Cutter::crossEdges(const BladeSegment& from, const BladeSegment& to,
   // made in the same order.
   const double tiny = 1e-12 * mean_edge_ * mean_edge_;
   const Vec3 normal = sweepNormal(tris);
-  std::array<Vec3, 2> plane_n;
-  std::array<double, 2> plane_len;
-  for (int k = 0; k < 2; ++k) {
-    plane_n[k] = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
-    plane_len[k] = plane_n[k].norm();
-  }
-  auto planeDistance = [&](int k, const Vec3& x) {
-    return plane_len[k] > 0 ? plane_n[k].dot(x - tris[k][0]) / plane_len[k] : HUGE_VAL;
-  };
+  const SweptPlanes planes(tris);
   // An edge can cross the swept quad only where its box meets the quad's box, and only when its
   // ends lie strictly on opposite sides of a usable triangle's plane (segmentCrossesTriangle).
   const Vec3 slack = Vec3::Constant(1e-6 * mean_edge_);
@@ -1424,7 +1423,7 @@ void Cutter::crossEdges(const BladeSegment& from, const BladeSegment& to,
   std::array<bool, 2> has_area, crossable;
   for (int k = 0; k < 2; ++k) {
     has_area[k] = triangleArea(tris[k]) > tiny;
-    crossable[k] = has_area[k] && plane_len[k] > 0;
+    crossable[k] = has_area[k] && planes.len[k] > 0;
   }
   // The tests in order of cost (all must hold; most edges of the corners lie on one side).
   auto mayCross = [&](int a, int b) {
@@ -1432,9 +1431,9 @@ void Cutter::crossEdges(const BladeSegment& from, const BladeSegment& to,
     for (int k = 0; k < 2 && !opposite; ++k) {
       if (!crossable[k]) continue;
       const double dp =
-          only ? planeDistance(k, mesh_->current(a)) : axis_values_[axis_slot_[a]][8 + k];
+          only ? planes.distance(k, mesh_->current(a)) : axis_values_[axis_slot_[a]][8 + k];
       const double dq =
-          only ? planeDistance(k, mesh_->current(b)) : axis_values_[axis_slot_[b]][8 + k];
+          only ? planes.distance(k, mesh_->current(b)) : axis_values_[axis_slot_[b]][8 + k];
       opposite = (dp > 0 && dq < 0) || (dp < 0 && dq > 0);
     }
     if (!opposite) return false;
