@@ -165,8 +165,8 @@ class Cutter {
   /// What a tick's moves reached of the kept features and the sweep's tests would pass: the
   /// sweep and the fronts would act on no other feature (see step()).
   struct Reached {
-    int vertex = -1;    // the one vertex trySnap() may snap (-1: none)
-    bool more = false;  // more than one such vertex
+    int vertex = -1;    // the one vertex trySnap() may snap, over a swept triangle (-1: none)
+    bool more = false;  // another vertex, or one the sweep might not look at: the tick is swept
     std::vector<std::pair<int, int>> edges;  // the edges that would cross (sorted, each once)
     bool faces = false;                      // a face a front would cross
     bool none() const { return vertex < 0 && !more && edges.empty() && !faces; }

@@ -1684,7 +1684,8 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     out->edges.clear();
     out->faces = false;
   }
-  // A vertex passing: the first is noted; a second (another vertex) ends the test.
+  // A vertex passing: the first is noted; a second (another vertex) ends the test (the sweep
+  // takes its vertices in the order of its tets).
   auto vertexPasses = [&](int v) {
     if (!out) return true;
     if (out->vertex < 0 || out->vertex == v) {
@@ -1699,19 +1700,33 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     const int v = q.v;
     if (onCut(v) || !mesh_->vertexAlive(v)) continue;  // snapped since: only looks
     const Vec3& x = mesh_->current(v);
-    if ((!onWound(v) && nearTrailingLine(x, tris)) ||
-        (nearPlane(0, x, snap_distance_) && pointNearTriangle(x, prepared[0], snap_distance_)) ||
-        (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, prepared[1], snap_distance_))) {
+    const bool crease = !onWound(v) && nearTrailingLine(x, tris);
+    const bool over =
+        (!crease || out) &&
+        ((nearPlane(0, x, snap_distance_) && pointNearTriangle(x, prepared[0], snap_distance_)) ||
+         (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, prepared[1], snap_distance_)));
+    if (crease || over) {
+      // A vertex over a swept triangle within the snap distance lies in the sweep's box and over
+      // the triangle, with every tet around it: the sweep looks at it. One taken at the crease
+      // alone (see trySnap()) may lie over none of them: the tick is swept.
+      if (out && !over) {
+        out->more = true;
+        return false;
+      }
       if (vertexPasses(v)) return false;
       continue;
     }
+    // Within the wound's wider band, the tets around it may lie outside the sweep's box (grown by
+    // the snap distance only): the tick is swept.
     if (onWound(v) &&
         ((nearPlane(0, x, wound_snap_distance_) &&
           pointNearTriangle(x, prepared[0], wound_snap_distance_)) ||
          (nearPlane(1, x, wound_snap_distance_) &&
           pointNearTriangle(x, prepared[1], wound_snap_distance_))) &&
-        woundFacing(v, normal) && vertexPasses(v))
+        woundFacing(v, normal)) {
+      if (out) out->more = true;
       return false;
+    }
   }
   double s;
   Vec3 bary;
