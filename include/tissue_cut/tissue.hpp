@@ -58,8 +58,9 @@ class Tissue {
   /// Applies a changed configuration between ticks: collapse (enabled, tau, budget, deadline,
   /// flips, smoothing), the cut's blade length, max jump and blade filter, and the physics
   /// material (enabled, integrator, density, Young's modulus, damping, gravity). Keys that need
-  /// the model rebuilt (mesh, mesh_max_tets, block_cell_size, physics/fixed_*) must be unchanged. Returns "" when applied,
-  /// else the first key that is invalid or cannot change live; the model is then left as it was.
+  /// the model rebuilt (mesh, mesh_max_tets, block_cell_size, physics/fixed_*) must be unchanged.
+  /// Returns "" when applied, else the first key that is invalid or cannot change live; the model
+  /// is then left as it was.
   std::string reconfigure(const Config& config);
 
   const TetMesh& mesh() const { return mesh_; }

@@ -18,6 +18,7 @@ namespace tissue_cut::test {
 namespace {
 
 constexpr const char* kNode = "/tissue";
+constexpr unsigned kBlockTets = 5100;
 
 // Sets the node's dynamic_reconfigure parameters that `request` holds; returns what it took.
 dynamic_reconfigure::Config reconfigureNode(const dynamic_reconfigure::Config& request) {
@@ -26,7 +27,6 @@ dynamic_reconfigure::Config reconfigureNode(const dynamic_reconfigure::Config& r
   EXPECT_TRUE(ros::service::call(std::string(kNode) + "/set_parameters", srv));
   return srv.response.config;
 }
-constexpr unsigned kBlockTets = 5100;
 
 class TissueNodeTest : public ::testing::Test {
  protected:

@@ -54,8 +54,9 @@ struct CutterOptions {
   /// tick that swept than the distance from the blade then to anything a sweep could act on,
   /// except a few features tested on their own each tick (quietReach()), is not swept: it would
   /// make no point, snap no vertex and cross no face. A tick that reaches some of those features
-  /// (at most one vertex) tests those alone, as the sweep would. The same cut, less work; false
-  /// sweeps every tick (for comparison), as does a cutter never told how far the tissue moves.
+  /// (at most one vertex, over a swept triangle) tests those alone, as the sweep would. The same
+  /// cut, less work; false sweeps every tick (for comparison), as does a cutter never told how
+  /// far the tissue moves.
   bool skip_quiet = true;
   /// How far the blade may move before the features kept for the quiet ticks are taken anew
   /// (around the blade where the last tick left it; that tick is then swept only if it reaches
@@ -179,11 +180,13 @@ class Cutter {
              const Reached* only = nullptr);
   /// The swept surface's normal at this tick (unit; the first triangle's unless it has no area).
   Vec3 sweepNormal(const std::array<Triangle, 2>& tris) const;
-  /// The sweep's edge crossings: of the sweep's tets (sweep_corners_), or of `only`.
+  /// The sweep's edge crossings: of the sweep's tets (sweep_corners_), or of `only` (`normal`:
+  /// sweepNormal(tris); lo, hi: the sweep's box).
   void crossEdges(const BladeSegment& from, const BladeSegment& to,
                   const std::array<Triangle, 2>& tris,
-                  const std::array<PreparedTriangle, 2>& prepared, const Vec3& lo, const Vec3& hi,
-                  const std::vector<std::pair<int, int>>* only, ChangeRecord* change);
+                  const std::array<PreparedTriangle, 2>& prepared, const Vec3& normal,
+                  const Vec3& lo, const Vec3& hi, const std::vector<std::pair<int, int>>* only,
+                  ChangeRecord* change);
   void crossFront(const std::array<Vec3, 2>& front, const Vec3& inward, ChangeRecord* change);
   /// An edge's or a face's vertices.
   using Corners = InlineVector<int, 3>;

@@ -1273,8 +1273,10 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   hi.array() += snap_distance_;
   if (only) {
     // The one vertex first, as the sweep snaps its vertices before it crosses edges.
-    if (only->vertex >= 0) trySnap(only->vertex, tris, prepared, sweepNormal(tris));
-    if (!only->edges.empty()) crossEdges(from, to, tris, prepared, lo, hi, &only->edges, change);
+    const Vec3 normal = sweepNormal(tris);
+    if (only->vertex >= 0) trySnap(only->vertex, tris, prepared, normal);
+    if (!only->edges.empty())
+      crossEdges(from, to, tris, prepared, normal, lo, hi, &only->edges, change);
     return;
   }
   sweepQuery(from, to, lo, hi, &near_scratch_);
@@ -1391,7 +1393,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       if (std::abs(at[8]) > band && std::abs(at[9]) > band) continue;
       trySnap(v, tris, prepared, normal);
     }
-  crossEdges(from, to, tris, prepared, lo, hi, nullptr, change);
+  crossEdges(from, to, tris, prepared, normal, lo, hi, nullptr, change);
 }
 
 Vec3 Cutter::sweepNormal(const std::array<Triangle, 2>& tris) const {
@@ -1404,16 +1406,15 @@ Vec3 Cutter::sweepNormal(const std::array<Triangle, 2>& tris) const {
 
 void Cutter::crossEdges(const BladeSegment& from, const BladeSegment& to,
                         const std::array<Triangle, 2>& tris,
-                        const std::array<PreparedTriangle, 2>& prepared, const Vec3& lo,
-                        const Vec3& hi, const std::vector<std::pair<int, int>>* only,
-                        ChangeRecord* change) {
+                        const std::array<PreparedTriangle, 2>& prepared, const Vec3& normal,
+                        const Vec3& lo, const Vec3& hi,
+                        const std::vector<std::pair<int, int>>* only, ChangeRecord* change) {
   // The edges of the sweep's tets (sweep_corners_, their vertices' plane distances in
   // axis_values_), or those of `only` (the kept edges a targeted tick reached: the sweep would
   // act on no other edge), with their plane distances taken here as the sweep takes them (the
   // same operations: the same values). Either way in increasing order, so that the points are
   // made in the same order.
   const double tiny = 1e-12 * mean_edge_ * mean_edge_;
-  const Vec3 normal = sweepNormal(tris);
   const SweptPlanes planes(tris);
   // An edge can cross the swept quad only where its box meets the quad's box, and only when its
   // ends lie strictly on opposite sides of a usable triangle's plane (segmentCrossesTriangle).
@@ -1966,12 +1967,14 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
       gap_blade_ += step;
       gap_last_ = *blade;
     }
+    // The tip's and the base's paths this tick, each moved toward the other end.
+    auto fronts = [&] {
+      crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
+      crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
+    };
     if (targeted) {
       sweep(*previous_, *blade, change, &reached_);
-      if (reached_.faces) {
-        crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
-        crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
-      }
+      if (reached_.faces) fronts();
     }
     // What a sweep may change, to check that a quiet tick's, or a targeted one's after its
     // features, would have changed none of it.
@@ -1988,10 +1991,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     const auto tris = sweptTriangles(*previous_, *blade);
     if (triangleArea(tris[0]) + triangleArea(tris[1]) > 1e-12 * mean_edge_ * mean_edge_)
       stroke_start_ = false;
-    if (full) {
-      crossFront({{previous_->tip, blade->tip}}, blade->base - blade->tip, change);
-      crossFront({{previous_->base, blade->base}}, blade->tip - blade->base, change);
-    }
+    if (full) fronts();
     swept_valid_ = false;
     if (check && (mesh_->vertexSlots() != slots || pending_.size() != pending ||
                   kept_off_.size() != kept || stood_for_.size() != stood || wound_flag_ != flags))
