@@ -153,6 +153,23 @@ TEST(TetGrid, CandidatesHoldEveryQueryInsideTheirBox) {
     }
   EXPECT_EQ(joined, 4);
   EXPECT_FALSE(grid.filedNear(mesh, change.added_tets[0], Vec3(1, 1, 1), Vec3(2, 2, 2)));
+  // Asked for many tets at once, it answers as for each alone: near and far ones, a dead slot.
+  std::vector<int> asked = change.added_tets;
+  asked.insert(asked.end(), change.removed_tets.begin(), change.removed_tets.end());
+  for (int t = 0; t < mesh.tetSlots(); t += 7) asked.push_back(t);
+  auto nearAtOnce = [&](const Vec3& lo, const Vec3& hi) {
+    std::vector<unsigned char> near;
+    grid.filedNear(mesh, asked, lo, hi, &near);
+    EXPECT_EQ(near.size(), asked.size());
+    int yes = 0;
+    for (std::size_t i = 0; i < asked.size() && i < near.size(); ++i) {
+      EXPECT_EQ(near[i] != 0, grid.filedNear(mesh, asked[i], lo, hi)) << "tet " << asked[i];
+      yes += near[i];
+    }
+    return yes;
+  };
+  EXPECT_GE(nearAtOnce(kKeptLo, kKeptHi), 4);
+  EXPECT_LT(nearAtOnce(Vec3(1, 1, 1), Vec3(2, 2, 2)), static_cast<int>(asked.size()));
   kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
   for (int k = 0; k < 200; ++k) {
     const auto [lo, hi] = boxInside(kKeptLo, kKeptHi, &rng);

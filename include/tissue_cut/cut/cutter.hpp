@@ -277,6 +277,7 @@ class Cutter {
   std::vector<int> near_cache_;
   Vec3 near_cache_lo_ = Vec3::Zero(), near_cache_hi_ = Vec3::Zero();
   bool near_cache_valid_ = false;
+  std::vector<unsigned char> join_near_;  // joinNearCache()'s: which of its tets are filed near
   // Parallel to near_cache_: a lower bound of each tet's distance from the blade at gap_ref_
   // when it was computed, plus gap_tissue_ then. Since then the blade has moved by at most
   // gap_blade_ (each tick's sweep lies within its larger end move of the blade before it) and

@@ -51,6 +51,9 @@ class TetGrid {
   void candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, std::vector<int>* out) const;
   /// Whether tet t, filed just now, belongs to candidates(lo, hi).
   bool filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) const;
+  /// filedNear() of each of `tets`, into (*near)[i] (1: near), the box grown once for all.
+  void filedNear(const TetMesh& mesh, const std::vector<int>& tets, const Vec3& lo, const Vec3& hi,
+                 std::vector<unsigned char>* near) const;
   /// True when the index has gone stale: a vertex drifted more than the margin from where it
   /// was filed (so a tet's box may have moved more than the margin), or dead entries pile up.
   /// Scans every vertex. (The cutter keeps the index fresh with refresh(); this checks the
@@ -111,6 +114,8 @@ class TetGrid {
   /// The query box [lo, hi] grown by reach(), in floats rounded outward: a filed box that may
   /// have drifted into [lo, hi] meets it.
   void grown(const Vec3& lo, const Vec3& hi, float* qlo, float* qhi) const;
+  /// filedNear() with the grown box.
+  bool filedIn(const TetMesh& mesh, int t, const float* qlo, const float* qhi) const;
   // How far a vertex may be from where it was filed, as far as refresh() knows: the farthest at
   // the last scan, plus the moves since.
   double drift_bound_ = 0.0;

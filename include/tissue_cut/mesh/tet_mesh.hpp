@@ -17,6 +17,15 @@ namespace tissue_cut {
 using Vec3 = Eigen::Vector3d;
 using TetVerts = std::array<int, 4>;
 
+/// Whether two vertex lists (a tet's, a face's, an edge's) hold the same vertices in the same
+/// places. (std::array's == compiles to a call of memcmp, tens of thousands of them a cut.)
+template <std::size_t N>
+inline bool sameVertices(const std::array<int, N>& a, const std::array<int, N>& b) {
+  int differ = 0;
+  for (std::size_t i = 0; i < N; ++i) differ |= a[i] ^ b[i];
+  return differ == 0;
+}
+
 /// Face f of a tet is opposite its local vertex f. The listed order makes the face normal
 /// (right-hand rule) point out of a positively oriented tet.
 constexpr int kTetFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};

@@ -159,7 +159,7 @@ class CollapseQueue {
   // The entry's tet is gone (its slot may hold another tet), or its neighbourhood changed since
   // it was queued.
   bool gone(const Entry& e) const {
-    return !mesh_->tetAlive(e.tet) || mesh_->tet(e.tet) != e.verts;
+    return !mesh_->tetAlive(e.tet) || !sameVertices(mesh_->tet(e.tet), e.verts);
   }
   bool stale(const Entry& e) const { return e.stamp != stampOf(e.verts); }
   const Entry& top() const { return entries_[heap_.top().entry]; }

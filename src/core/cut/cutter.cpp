@@ -171,11 +171,14 @@ void Cutter::refreshGrid(const ChangeRecord& change) {
 
 void Cutter::joinNearCache(const std::vector<int>& tets) {
   if (!near_cache_valid_) return;
-  for (int t : tets) {
+  std::vector<unsigned char>& near = join_near_;
+  grid_.filedNear(*mesh_, tets, near_cache_lo_, near_cache_hi_, &near);
+  for (std::size_t k = 0; k < tets.size(); ++k) {
+    const int t = tets[k];
     const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
     const std::size_t i = it - near_cache_.begin();
     const bool cached = it != near_cache_.end() && *it == t;
-    if (!grid_.filedNear(*mesh_, t, near_cache_lo_, near_cache_hi_)) {
+    if (!near[k]) {
       if (cached) {
         near_gap_[i] = 0.0;  // a slot reused far away: left to the box filter
         keepClose(i, false);
@@ -1812,12 +1815,14 @@ void Cutter::crossFront(const std::array<Vec3, 2>& front, const Vec3& inward,
     }
   }
   std::sort(faces.begin(), faces.end());
-  faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+  faces.erase(std::unique(faces.begin(), faces.end(), sameVertices<3>), faces.end());
   std::vector<std::array<int, 3>>& done = front_done_;  // few
   done.clear();
   for (const auto& face : faces) {
     const std::array<int, 3> key = sortedFace(face[0], face[1], face[2]);
-    if (std::find(done.begin(), done.end(), key) != done.end()) continue;
+    if (std::any_of(done.begin(), done.end(),
+                    [&](const std::array<int, 3>& d) { return sameVertices(d, key); }))
+      continue;
     done.push_back(key);
     const Triangle tri{mesh_->current(face[0]), mesh_->current(face[1]), mesh_->current(face[2])};
     double s;

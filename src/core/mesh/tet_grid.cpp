@@ -279,16 +279,28 @@ void TetGrid::grown(const Vec3& lo, const Vec3& hi, float* qlo, float* qhi) cons
   // little more, and rounded outward, for the floats).
   for (int d = 0; d < 3; ++d) {
     const double slack = reach(lo, hi, d);
-    qlo[d] = std::nextafter(static_cast<float>(lo[d] - slack), -HUGE_VALF);
-    qhi[d] = std::nextafter(static_cast<float>(hi[d] + slack), HUGE_VALF);
+    qlo[d] = floatBelow(lo[d] - slack);
+    qhi[d] = floatAbove(hi[d] + slack);
   }
 }
 
 bool TetGrid::filedNear(const TetMesh& mesh, int t, const Vec3& lo, const Vec3& hi) const {
-  if (cells_.empty() || !mesh.tetAlive(t) || t >= static_cast<int>(boxes_.size())) return false;
-  // The test candidates() makes of its filed box.
   float qlo[3], qhi[3];
   grown(lo, hi, qlo, qhi);
+  return filedIn(mesh, t, qlo, qhi);
+}
+
+void TetGrid::filedNear(const TetMesh& mesh, const std::vector<int>& tets, const Vec3& lo,
+                        const Vec3& hi, std::vector<unsigned char>* near) const {
+  float qlo[3], qhi[3];
+  grown(lo, hi, qlo, qhi);
+  near->resize(tets.size());
+  for (std::size_t i = 0; i < tets.size(); ++i) (*near)[i] = filedIn(mesh, tets[i], qlo, qhi);
+}
+
+bool TetGrid::filedIn(const TetMesh& mesh, int t, const float* qlo, const float* qhi) const {
+  if (cells_.empty() || !mesh.tetAlive(t) || t >= static_cast<int>(boxes_.size())) return false;
+  // The test candidates() makes of its filed box.
   const Box& e = boxes_[t];
   return !(e.lo[0] > qhi[0] || e.hi[0] < qlo[0] || e.lo[1] > qhi[1] || e.hi[1] < qlo[1] ||
            e.lo[2] > qhi[2] || e.hi[2] < qlo[2]);

@@ -95,7 +95,9 @@ struct AppendScratch {
   std::vector<char> cancelled;
 };
 
-AppendScratch& appendScratch() {
+// Not inlined: the reference it returns is then a plain pointer. Inlined, the compiler looked the
+// thread_local up again (a call, in a shared library) at each use in append()'s loops.
+[[gnu::noinline]] AppendScratch& appendScratch() {
   thread_local AppendScratch scratch;
   return scratch;
 }
@@ -495,7 +497,7 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
   for (std::size_t i = 0; i < new_faces.size();) {
     const FaceKey key = new_faces[i];
     int count = 0;
-    for (; i < new_faces.size() && new_faces[i] == key; ++i) ++count;
+    for (; i < new_faces.size() && sameVertices(new_faces[i], key); ++i) ++count;
     int a = key[0], b = key[1], c = key[2];
     smallestStarFirst(&a, &b, &c);
     int kept = 0;

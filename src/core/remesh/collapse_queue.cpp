@@ -82,7 +82,7 @@ void CollapseQueue::queueTet(int t) {
   const TetVerts& tv = mesh_->tet(t);
   const long long stamp = stampOf(tv);
   growSlots(&queued_, mesh_->tetSlots(), kNotQueued);
-  if (queued_[t].first == tv && queued_[t].second == stamp) return;  // already queued as it is
+  if (sameVertices(queued_[t].first, tv) && queued_[t].second == stamp) return;  // already queued as it is
   const double q = restQuality(*mesh_, t);
   if (!(q < tau_)) return;
   push({q, t, tv, stamp});

@@ -58,13 +58,20 @@ double materialAngle(const TetMesh& mesh, int u, int v) {
   return sum;
 }
 
+// findFolds()'s list, kept a thread (a collapse asks it for each end). Not inlined: a reference
+// to a thread_local inlined into the loops was looked up again (a call, in a shared library) at
+// each use.
+[[gnu::noinline]] std::vector<std::pair<int, Vec3>>& threadEdgeNormals() {
+  thread_local std::vector<std::pair<int, Vec3>> edge_normals;
+  return edge_normals;
+}
+
 // The fold edges at v (see foldNeighbours): each one's other end once, in the order found, to
 // add(u), which returns whether to go on looking; known(u) says whether u was added already.
 template <typename Known, typename Add>
 void findFolds(const TetMesh& mesh, int v, const Known& known, const Add& add) {
-  // Each boundary face at v gives its outward unit normal to its two edges through v (a list
-  // kept a thread: a collapse asks this for each end).
-  thread_local std::vector<std::pair<int, Vec3>> edge_normals;
+  // Each boundary face at v gives its outward unit normal to its two edges through v.
+  std::vector<std::pair<int, Vec3>>& edge_normals = threadEdgeNormals();
   edge_normals.clear();
   for (int t : mesh.vertexTets(v)) {
     const TetVerts& tv = mesh.tet(t);

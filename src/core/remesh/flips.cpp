@@ -25,8 +25,9 @@ bool finish(const TetMesh& mesh, double min_gain, FlipCandidate* c) {
 
 // A candidate being made, one a thread: its lists keep their room from one try to the next (the
 // queue tries up to 16 flips on each tet it works), and `out` takes a copy, into lists with
-// room of their own, only when the flip is found.
-FlipCandidate& freshCandidate() {
+// room of their own, only when the flip is found. Not inlined: its callers then hold a plain
+// pointer (each lookup of a thread_local in a shared library is a call).
+[[gnu::noinline]] FlipCandidate& freshCandidate() {
   thread_local FlipCandidate cand;
   cand.removed.clear();
   cand.added.clear();

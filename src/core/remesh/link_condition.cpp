@@ -110,6 +110,14 @@ bool hasBoundaryFaceAt(const TetMesh& mesh, int t, int v) {
   return false;
 }
 
+// The thread's scratch, looked up once a check (linkConditionHolds): in a shared library each
+// lookup of a thread_local is a call, and a reference to it inlined there was looked up again at
+// each use in the loops.
+[[gnu::noinline]] Scratch& threadScratch() {
+  thread_local Scratch scratch;
+  return scratch;
+}
+
 }  // namespace
 
 const char* toString(CollapseRefusal refusal) {
@@ -159,9 +167,7 @@ void requireEdge(const TetMesh& mesh, int a, int b, const char* who) {
 
 bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
   requireEdge(mesh, a, b, "linkConditionHolds");
-  thread_local Scratch scratch;
-  Scratch& s = scratch;  // the thread's copy looked up once (in a shared library each lookup of
-                         // a thread_local is a call)
+  Scratch& s = threadScratch();
   s.star.resize(mesh.vertexTets(a).size());  // the edge's star is among a's tets
   s.star.resize(mesh.edgeTets(a, b, s.star.data(), static_cast<int>(s.star.size())));
   // Lk(ab) lies in Lk(a) ∩ Lk(b) at every level, so each level holds exactly when the
