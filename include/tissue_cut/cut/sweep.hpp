@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 
 #include "tissue_cut/cut/blade.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -46,8 +47,11 @@ inline bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance)
 
 /// A lower bound of the distance [m] between segment base->tip and the tet with these corners
 /// (separating axes: coordinate axes, the segment's, towards the tet, the tet's face normals);
-/// 0 when they may meet or a corner is not finite.
-double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners);
+/// 0 when they may meet or a corner is not finite. Once an axis gives a bound above `enough`
+/// [m], that bound is returned without trying the others (it may then be lower than with
+/// `enough` infinite, never lower than `enough`).
+double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners,
+                     double enough = HUGE_VAL);
 
 /// The distance [m] between segments p0-p1 and q0-q1.
 double segmentSegmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1);

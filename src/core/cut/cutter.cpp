@@ -253,10 +253,16 @@ double Cutter::measureDue(std::size_t i) {
 }
 
 double Cutter::gapOf(int t) const {
+  // Every use of a gap is a filter against gap_far_ or less: a bound past it is as good as the
+  // largest one, and most of the cache's tets give one on the cheaper axes. (Carried over, such
+  // a bound is measured again sooner; that costs less than the face normals of every tet: in the
+  // 20k replay 9,808 gaps instead of 8,182, 3.6 M instructions instead of 4.9 M. Stopping past
+  // gap_far_ plus a quarter, a half, one or two mean edges cost more: 3.9-4.7 M.)
   const TetVerts& tv = mesh_->tet(t);
   return segmentTetGap(gap_ref_.base, gap_ref_.tip,
                        {mesh_->current(tv[0]), mesh_->current(tv[1]), mesh_->current(tv[2]),
-                        mesh_->current(tv[3])});
+                        mesh_->current(tv[3])},
+                       gap_far_);
 }
 
 bool Cutter::gapsRestart(const BladeSegment& from) const {

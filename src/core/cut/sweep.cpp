@@ -68,10 +68,13 @@ bool pointNearTriangle(const Vec3& x, const PreparedTriangle& prepared, double d
   return barycentric(projected, t, n).minCoeff() >= 0.0;
 }
 
-double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners) {
+double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners,
+                     double enough) {
   // Separating axes between the tet and the segment: the three coordinate axes, the segment's
   // own, the direction from its line to the tet's centroid and the tet's four face normals.
-  // Along any unit axis, the gap between the two projections is at most the distance.
+  // Along any unit axis, the gap between the two projections is at most the distance. The
+  // cheaper axes first: a gap past `enough` ends the search.
+  enough = std::max(enough, 0.0);  // (the answer is never below 0)
   std::array<Vec3, 4> p;
   for (int i = 0; i < 4; ++i) {
     p[i] = corners[i] - base;
@@ -86,6 +89,7 @@ double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4
   }
   const Vec3 slo = d.cwiseMin(Vec3::Zero()), shi = d.cwiseMax(Vec3::Zero());
   double gap = std::max((lo - shi).maxCoeff(), (slo - hi).maxCoeff());
+  if (gap > enough) return gap;
   const double len = d.norm();
   if (len > 0) {
     const Vec3 u = d / len;
@@ -95,6 +99,7 @@ double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4
       z = std::max(z, u.dot(q));
     }
     gap = std::max({gap, a - len, -z});
+    if (gap > enough) return gap;
     // Perpendicular to the segment, which projects to the single value 0 there. Only a positive
     // gap counts (the answer is never below 0): an axis is scaled to unit length only when its
     // gap is.
@@ -103,6 +108,7 @@ double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4
     double m = HUGE_VAL;
     for (const Vec3& q : p) m = std::min(m, w.dot(q));
     if (m > 0) gap = std::max(gap, m / w.norm());
+    if (gap > enough) return gap;
   }
   // Each face's outward normal: the segment's nearer end beyond the face's plane.
   for (int f = 0; f < 4; ++f) {
