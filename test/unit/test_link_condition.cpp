@@ -660,7 +660,8 @@ namespace {
 
 // checkCollapse with the link test last (the collapse queue's order) against the link test
 // first, on both orders of every edge: the same decision, and the same reason but where the link
-// condition and the geometry both refuse.
+// condition and the geometry both refuse. checkCollapseKnown (the queue's call) against the link
+// test last: the same.
 struct LinkLastTally {
   int refused_by_link = 0;  // link first: kLink
   int still_link = 0;       // ... and link last: kLink too (the geometry passed)
@@ -678,6 +679,17 @@ void expectLinkLastDecidesAlike(const TetMesh& mesh, const char* name, LinkLastT
         const CollapseCheck last = checkCollapse(mesh, a, b, tolerance, floor, true);
         const auto where =
             std::string(name) + ": edge " + std::to_string(a) + "-" + std::to_string(b);
+        // Told that ab is an edge and which ends lie on the boundary (the queue's call), the same
+        // to the bit.
+        const CollapseCheck known =
+            checkCollapseKnown(mesh, a, b, isBoundaryVertex(mesh, a), isBoundaryVertex(mesh, b),
+                               tolerance, floor, true);
+        ASSERT_EQ(known.refusal, last.refusal) << where;
+        EXPECT_EQ(known.removed, last.removed) << where;
+        EXPECT_EQ(known.survivor, last.survivor) << where;
+        EXPECT_EQ(known.worst_before, last.worst_before) << where;
+        EXPECT_EQ(known.worst_after, last.worst_after) << where;
+        EXPECT_EQ(known.volume_change, last.volume_change) << where;
         ASSERT_EQ(first.refusal == CollapseRefusal::kNone, last.refusal == CollapseRefusal::kNone)
             << where;
         if (first.refusal == CollapseRefusal::kLink) {

@@ -96,6 +96,13 @@ std::vector<int> foldNeighbours(const TetMesh& mesh, int v);
 CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tolerance = 0.0,
                             double length_floor = 0.0, bool link_last = false);
 
+/// checkCollapse() for a caller that knows ab is an edge of a live tet (not checked) and whether
+/// each end is a boundary vertex (isBoundaryVertex): the collapse queue tries the six edges of a
+/// tet, and would otherwise look at each of its four stars three times over for that.
+CollapseCheck checkCollapseKnown(const TetMesh& mesh, int a, int b, bool a_boundary,
+                                 bool b_boundary, double shape_tolerance, double length_floor,
+                                 bool link_last);
+
 /// Collapses edge ab if checkCollapse accepts it: TetMesh::mergeVertices(removed, survivor,
 /// record), so the survivor keeps its own rest and current positions.
 /// Inputs: mesh; a, b as for checkCollapse; record (may be null) receives the change.

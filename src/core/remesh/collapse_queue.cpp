@@ -125,10 +125,18 @@ bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(in
   // best worst quality goes, shorter first among equals.
   CollapseCheck best;
   double best_length = 0.0;
+  // The tet is live (its entry is neither gone nor stale): its edges are edges. Which corners
+  // lie on the boundary, found when first asked.
+  std::array<signed char, 4> on_boundary{-1, -1, -1, -1};
+  auto boundary = [&](int k) {
+    if (on_boundary[k] < 0) on_boundary[k] = isBoundaryVertex(*mesh_, tv[k]) ? 1 : 0;
+    return on_boundary[k] == 1;
+  };
   for (const auto& edge : kTetEdge) {
     const int a = tv[edge[0]], b = tv[edge[1]];
     if (alreadyRefused(a, b)) continue;  // nothing changed around it since it was refused
-    CollapseCheck check = checkCollapse(*mesh_, a, b, shape_tolerance_, length_floor_, true);
+    CollapseCheck check = checkCollapseKnown(*mesh_, a, b, boundary(edge[0]), boundary(edge[1]),
+                                             shape_tolerance_, length_floor_, true);
     if (check.refusal == CollapseRefusal::kNone && shape_tolerance_ > 0.0 &&
         std::abs(volume_changed_ + check.volume_change) > volume_budget_)
       check.refusal = CollapseRefusal::kBoundary;  // the rest volume would drift too far

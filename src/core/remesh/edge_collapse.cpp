@@ -274,8 +274,14 @@ CollapseCheck checkCollapse(const TetMesh& mesh, int a, int b, double shape_tole
                             double length_floor, bool link_last) {
   // Throws for a non-edge before anything else is read.
   requireEdge(mesh, a, b, "checkCollapse");
+  return checkCollapseKnown(mesh, a, b, isBoundaryVertex(mesh, a), isBoundaryVertex(mesh, b),
+                            shape_tolerance, length_floor, link_last);
+}
+
+CollapseCheck checkCollapseKnown(const TetMesh& mesh, int a, int b, bool a_boundary,
+                                 bool b_boundary, double shape_tolerance, double length_floor,
+                                 bool link_last) {
   const bool link_holds = link_last || linkConditionHolds(mesh, a, b);
-  const bool a_boundary = isBoundaryVertex(mesh, a), b_boundary = isBoundaryVertex(mesh, b);
   // Newer onto older: a cut point goes back onto an original vertex, and the older part of the
   // mesh, which other data has seen longer, stays where it was.
   int removed = std::max(a, b), survivor = std::min(a, b);
