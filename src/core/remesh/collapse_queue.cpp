@@ -288,12 +288,20 @@ bool CollapseQueue::ghostsNear(const std::vector<Vec3>& points,
                                const std::vector<Triangle>& faces) const {
   const double limit = shape_tolerance_ * length_floor_;
   for (const Vec3& p : points) {
+    // A face whose box, grown by the limit and far more than the distance's rounding, leaves p
+    // out lies further than the limit: only the others are measured (the same answers).
+    const Vec3 lo = p.array() - (limit * (1.0 + 1e-6) + 1e-9 * p.cwiseAbs().maxCoeff());
+    const Vec3 hi = 2.0 * p - lo;
     bool near = false;
-    for (const Triangle& f : faces)
+    for (const Triangle& f : faces) {
+      if ((f[0].cwiseMax(f[1]).cwiseMax(f[2]).array() < lo.array()).any() ||
+          (f[0].cwiseMin(f[1]).cwiseMin(f[2]).array() > hi.array()).any())
+        continue;
       if (pointTriangleDistance(p, f[0], f[1], f[2]) <= limit) {
         near = true;
         break;
       }
+    }
     if (!near) return false;
   }
   return true;
