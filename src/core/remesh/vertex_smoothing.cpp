@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <vector>
 
 #include "tissue_cut/mesh/inline_vector.hpp"
@@ -24,31 +25,49 @@ std::array<Vec3, 4> restCorners(const TetMesh& mesh, int t, int v, const Vec3& p
 
 // Worst rest Q of v's star with v at p; -1 when a tet is not sound. Stops at the first tet no
 // better than `floor` (its Q is returned): the caller only wants to know whether p beats it.
-// star[first] is looked at first (the tet that was worst before: the likeliest to stop it), then
-// star[*stopper] (the tet that stopped the last call: trial positions lie close together, and
-// the same tet tends to stop them), then the others in star order; *stopper becomes the place of
-// the tet this call stopped at. The order changes how soon a call stops, never what it answers.
-// When it looks at every tet, *worst_at is the place in the star of the worst (the first of
-// equals).
+// The tets are looked at in *order, the caller's guess of the likeliest to stop it first; the
+// tet it stops at moves to the front (the trial positions lie close together, and the same tet
+// tends to stop the next one). The order changes how soon a call stops, never what it answers.
+// When it looks at every tet, (*q)[i] is the Q of star[i] and *worst_at the place in the star
+// of the worst (the first of equals).
 double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const Vec3& p,
-                 double floor, int first, int* stopper, int* worst_at) {
+                 double floor, std::vector<int>* order, std::vector<double>* q, int* worst_at) {
   double worst = 1.0;  // Q is at most 1: after the first look, the lowest Q seen
-  auto look = [&](int i) {
+  for (auto it = order->begin(); it != order->end(); ++it) {
+    const int i = *it;
     const auto c = restCorners(mesh, star[i], v, p);
-    const double q = soundTetQuality(c[0], c[1], c[2], c[3], kMinCollapseRelativeVolume);
-    if (q < 0.0) return worst = -1.0;  // not sound
-    if (q < worst || (q == worst && i < *worst_at)) *worst_at = i;
-    return worst = std::min(worst, q);
-  };
-  if (look(first) <= floor) return worst;
-  const int second = *stopper;
-  if (second != first && look(second) <= floor) return worst;
-  for (int i = 0; i < static_cast<int>(star.size()); ++i)
-    if (i != first && i != second && look(i) <= floor) {
-      *stopper = i;
+    const double qi = soundTetQuality(c[0], c[1], c[2], c[3], kMinCollapseRelativeVolume);
+    if (qi < 0.0) {
+      worst = -1.0;  // not sound
+    } else {
+      (*q)[i] = qi;
+      if (qi < worst || (qi == worst && i < *worst_at)) *worst_at = i;
+      worst = std::min(worst, qi);
+    }
+    if (worst <= floor) {
+      std::rotate(order->begin(), it, it + 1);
       return worst;
     }
+  }
   return worst;
+}
+
+// smoothVertex()'s lists, one a thread, kept for their room. Not inlined: its caller then holds
+// a plain pointer (each lookup of a thread_local in a shared library is a call).
+struct SmoothingScratch {
+  std::vector<double> q;   // per place in the star
+  std::vector<int> order;  // the star's places in the order worstWith() looks at them
+};
+[[gnu::noinline]] SmoothingScratch& smoothingScratch() {
+  thread_local SmoothingScratch scratch;
+  return scratch;
+}
+
+// The star's places from the worst tet to the best by their Q in q (the first of equals first).
+void sortByQuality(const std::vector<double>& q, std::vector<int>* order) {
+  std::sort(order->begin(), order->end(), [&](int a, int b) {
+    return q[a] < q[b] || (q[a] == q[b] && a < b);
+  });
 }
 
 // The point that makes tet t regular-looking over the face opposite v: above the face's centroid
@@ -119,8 +138,12 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
   // The star's qualities where v is: the worst, and the first tet that has it.
   double lowest = 2.0;
   int worst_at = 0;
+  SmoothingScratch& scratch = smoothingScratch();
+  std::vector<double>& star_q = scratch.q;
+  star_q.resize(star.size());
   for (int i = 0; i < static_cast<int>(star.size()); ++i) {
     const double q = restQuality(*mesh, star[i]);
+    star_q[i] = q;
     if (q < lowest) lowest = q, worst_at = i;
   }
   out.worst_before = std::min(1.0, lowest);
@@ -146,7 +169,12 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
 
   Vec3 best = origin;
   double best_q = out.worst_before;
-  int stopper = worst_at;
+  // The trial positions lie close together: the tets worst at the best position so far are the
+  // likeliest to stop a trial that does not beat it. Looked at in that order.
+  std::vector<int>& order = scratch.order;
+  order.resize(star.size());
+  std::iota(order.begin(), order.end(), 0);
+  sortByQuality(star_q, &order);
   for (int round = 0; round < 4; ++round) {
     // The worst tet at the best position so far (known from the look that made it the best).
     const int worst_t = worst_at;
@@ -158,12 +186,13 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
       for (double step : {1.0, 0.5, 0.25, 0.125}) {
         const Vec3 p = project(out.freedom, dir, origin, from + step * (target - from));
         int at = static_cast<int>(star.size());
-        const double q = worstWith(*mesh, star, v, p, best_q + 1e-12, worst_t, &stopper, &at);
+        const double q = worstWith(*mesh, star, v, p, best_q + 1e-12, &order, &star_q, &at);
         if (q > best_q + 1e-12) {  // every tet was looked at: `at` is the worst's place
           best_q = q;
           best = p;
           worst_at = at;
           improved = true;
+          sortByQuality(star_q, &order);
         }
       }
     if (!improved) break;
