@@ -669,6 +669,16 @@ struct LinkLastTally {
   int accepted = 0;
 };
 
+// Two checks alike to the bit: the decision, which end moves, and the measures.
+void expectSameCheck(const CollapseCheck& x, const CollapseCheck& y, const std::string& where) {
+  EXPECT_EQ(x.refusal, y.refusal) << where;
+  EXPECT_EQ(x.removed, y.removed) << where;
+  EXPECT_EQ(x.survivor, y.survivor) << where;
+  EXPECT_EQ(x.worst_before, y.worst_before) << where;
+  EXPECT_EQ(x.worst_after, y.worst_after) << where;
+  EXPECT_EQ(x.volume_change, y.volume_change) << where;
+}
+
 void expectLinkLastDecidesAlike(const TetMesh& mesh, const char* name, LinkLastTally* tally) {
   // Boundary shapes kept exactly, and within the tissue's tolerance (8% of the faces' longest
   // edges, and of a floor of a few millimetres, as Tissue sets it).
@@ -684,12 +694,7 @@ void expectLinkLastDecidesAlike(const TetMesh& mesh, const char* name, LinkLastT
         const CollapseCheck known =
             checkCollapseKnown(mesh, a, b, isBoundaryVertex(mesh, a), isBoundaryVertex(mesh, b),
                                tolerance, floor, true);
-        ASSERT_EQ(known.refusal, last.refusal) << where;
-        EXPECT_EQ(known.removed, last.removed) << where;
-        EXPECT_EQ(known.survivor, last.survivor) << where;
-        EXPECT_EQ(known.worst_before, last.worst_before) << where;
-        EXPECT_EQ(known.worst_after, last.worst_after) << where;
-        EXPECT_EQ(known.volume_change, last.volume_change) << where;
+        expectSameCheck(known, last, where);
         ASSERT_EQ(first.refusal == CollapseRefusal::kNone, last.refusal == CollapseRefusal::kNone)
             << where;
         if (first.refusal == CollapseRefusal::kLink) {
@@ -704,12 +709,7 @@ void expectLinkLastDecidesAlike(const TetMesh& mesh, const char* name, LinkLastT
           continue;
         }
         // Not refused by the link condition: everything alike, to the bit.
-        ASSERT_EQ(last.refusal, first.refusal) << where;
-        EXPECT_EQ(last.removed, first.removed) << where;
-        EXPECT_EQ(last.survivor, first.survivor) << where;
-        EXPECT_EQ(last.worst_before, first.worst_before) << where;
-        EXPECT_EQ(last.worst_after, first.worst_after) << where;
-        EXPECT_EQ(last.volume_change, first.volume_change) << where;
+        expectSameCheck(last, first, where);
         if (first.refusal == CollapseRefusal::kNone) ++tally->accepted;
       }
 }
