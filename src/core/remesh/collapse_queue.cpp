@@ -82,7 +82,8 @@ void CollapseQueue::queueTet(int t) {
   const TetVerts& tv = mesh_->tet(t);
   const long long stamp = stampOf(tv);
   growSlots(&queued_, mesh_->tetSlots(), kNotQueued);
-  if (sameVertices(queued_[t].first, tv) && queued_[t].second == stamp) return;  // already queued as it is
+  // Already queued as it is.
+  if (sameVertices(queued_[t].first, tv) && queued_[t].second == stamp) return;
   const double q = restQuality(*mesh_, t);
   if (!(q < tau_)) return;
   push({q, t, tv, stamp});
@@ -290,8 +291,8 @@ bool CollapseQueue::ghostsNear(const std::vector<Vec3>& points,
   for (const Vec3& p : points) {
     // A face whose box, grown by the limit and far more than the distance's rounding, leaves p
     // out lies further than the limit: only the others are measured (the same answers).
-    const Vec3 lo = p.array() - (limit * (1.0 + 1e-6) + 1e-9 * p.cwiseAbs().maxCoeff());
-    const Vec3 hi = 2.0 * p - lo;
+    const double margin = limit * (1.0 + 1e-6) + 1e-9 * p.cwiseAbs().maxCoeff();
+    const Vec3 lo = p.array() - margin, hi = p.array() + margin;
     bool near = false;
     for (const Triangle& f : faces) {
       if ((f[0].cwiseMax(f[1]).cwiseMax(f[2]).array() < lo.array()).any() ||
