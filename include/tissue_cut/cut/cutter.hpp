@@ -54,7 +54,7 @@ struct CutterOptions {
   /// tick that swept than the distance from the blade then to anything a sweep could act on,
   /// except a few features tested on their own each tick (quietReach()), is not swept: it would
   /// make no point, snap no vertex and cross no face. A tick that reaches some of those features
-  /// (at most one vertex, over a swept triangle) tests those alone, as the sweep would. The same
+  /// (at most one vertex the sweep would look at) tests those alone, as the sweep would. The same
   /// cut, less work; false sweeps every tick (for comparison), as does a cutter never told how
   /// far the tissue moves.
   bool skip_quiet = true;
@@ -166,8 +166,8 @@ class Cutter {
   /// What a tick's moves reached of the kept features and the sweep's tests would pass: the
   /// sweep and the fronts would act on no other feature (see step()).
   struct Reached {
-    int vertex = -1;    // the one vertex trySnap() may snap, over a swept triangle (-1: none)
-    bool more = false;  // another vertex, or one the sweep might not look at: the tick is swept
+    int vertex = -1;    // the one vertex trySnap() may snap, one the sweep looks at (-1: none)
+    bool more = false;  // another vertex, or one not known to be looked at: the tick is swept
     std::vector<std::pair<int, int>> edges;  // the edges that would cross (sorted, each once)
     bool faces = false;                      // a face a front would cross
     bool none() const { return vertex < 0 && !more && edges.empty() && !faces; }
@@ -293,6 +293,19 @@ class Cutter {
     return near_gap_[place] != kGapDue ? near_gap_[place] : measureDue(place);
   }
   double measureDue(std::size_t place);
+  /// The gap measureDue() takes, not kept.
+  double dueGap(std::size_t place) const;
+  /// sweepQuery()'s reach for a tet's gap, and the reach for one holding a wound vertex, when
+  /// blade and tissue moved by `moved` since the gaps were taken.
+  std::pair<double, double> gapReach(const BladeSegment& from, const BladeSegment& to,
+                                     double step, double moved) const;
+  /// Whether sweepQuery() takes tet t with this gap.
+  bool gapTakes(int t, double gap, double reach, double wound_reach) const;
+  /// The sweep's bands around a swept triangle's plane: the snap distance's, and the wound's
+  /// (for a tet holding a wound vertex), with room for rounding.
+  std::pair<double, double> sweepBands() const;
+  /// Whether the sweep keeps coarse tet tv, at this reach (see sweep()) from a swept triangle.
+  bool bandTakes(const TetVerts& tv, double reach, double narrow, double wide) const;
   BladeSegment gap_ref_, gap_last_;
   bool gap_valid_ = false;
   double gap_blade_ = 0.0, gap_tissue_ = 0.0;
@@ -406,6 +419,10 @@ class Cutter {
   /// a second vertex), and the answer is out->none().
   bool watchedQuiet(const BladeSegment& from, const BladeSegment& to, double moved,
                     Reached* out = nullptr) const;
+  /// Whether the sweep from `from` to `to` would pass vertex v to trySnap(): 1 it would, 0 it
+  /// would not, -1 not known without sweeping (it would take the near cache or the gaps anew).
+  int sweepLooksAt(int v, const BladeSegment& from, const BladeSegment& to,
+                   const std::array<Triangle, 2>& tris) const;
   Reached reached_;
   std::set<int> deferred_;               // vertices to split once that keeps a 2-manifold
   // Vertices of the tets and marks changed since separate() last ran (by the cutter or, through

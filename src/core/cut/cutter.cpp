@@ -33,6 +33,69 @@ struct SweptPlanes {
   std::array<double, 2> len;
 };
 
+// The sweep's filter of tets (see sweep()): each usable swept triangle's plane and its three
+// in-plane side normals, pointing away from it, as separating axes, with the room the crossing
+// test's rounding needs in the plane. A point's place along the eight axes is values(); a tet's
+// distance from the plane of a triangle it lies over, from its corners' places, reach().
+struct SweepAxes {
+  struct Axis {
+    Vec3 n;
+    double at;
+  };
+  std::array<std::array<Axis, 4>, 2> axes;
+  std::array<bool, 2> usable{false, false};
+  std::array<double, 2> side_tol{0.0, 0.0};
+  SweepAxes(const std::array<Triangle, 2>& tris, double tol) {
+    for (int k = 0; k < 2; ++k) {
+      const Vec3 n = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
+      if (!(n.norm() > 0)) continue;
+      usable[k] = true;
+      const Vec3 unit = n.normalized();
+      axes[k][0] = {unit, unit.dot(tris[k][0])};
+      double longest = 0.0;
+      for (int e = 0; e < 3; ++e) {
+        const Vec3 &p = tris[k][e], &q = tris[k][(e + 1) % 3], &r = tris[k][(e + 2) % 3];
+        longest = std::max(longest, (q - p).norm());
+        Vec3 m = (q - p).cross(unit);
+        if (m.dot(r - p) > 0) m = -m;  // away from the triangle
+        const double len = m.norm();
+        if (len > 0) m /= len;
+        axes[k][e + 1] = {m, m.dot(p)};
+      }
+      // segmentCrossesTriangle lets barycentric coordinates down to -1e-9 through.
+      side_tol[k] = 1e-6 * longest + tol;
+    }
+  }
+  // at[4 k + e]: x along axis e of triangle k (0 where the triangle is not usable).
+  void values(const Vec3& x, double* at) const {
+    for (int k = 0; k < 2; ++k)
+      for (int e = 0; e < 4; ++e)
+        at[4 * k + e] = usable[k] ? axes[k][e].n.dot(x) - axes[k][e].at : 0.0;
+  }
+  // The distance of a tet, its corners' values() given, from the plane of a swept triangle it
+  // lies over (infinity: none).
+  double reach(const std::array<const double*, 4>& corner) const {
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 2; ++k) {
+      if (!usable[k]) continue;
+      bool over = true;
+      for (int e = 1; e < 4 && over; ++e) {
+        double lo = std::numeric_limits<double>::infinity();
+        for (const double* at : corner) lo = std::min(lo, at[4 * k + e]);
+        over = lo <= side_tol[k];
+      }
+      if (!over) continue;
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (const double* at : corner) {
+        lo = std::min(lo, at[4 * k]);
+        hi = std::max(hi, at[4 * k]);
+      }
+      best = std::min(best, std::max({0.0, lo, -hi}));
+    }
+    return best;
+  }
+};
+
 void renameIn(TetCut* cut, int from, int to) {
   for (int& v : cut->corner)
     if (v == from) v = to;
@@ -248,8 +311,32 @@ void Cutter::gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out) {
 double Cutter::measureDue(std::size_t i) {
   // Measured now instead of when the tet was filed: the tissue's moves since gap_ref_ are counted
   // as they are now, and the bound holds as well (see near_gap_).
+  return near_gap_[i] = dueGap(i);
+}
+
+double Cutter::dueGap(std::size_t i) const {
   const int t = near_cache_[i];
-  return near_gap_[i] = mesh_->tetAlive(t) ? gapOf(t) + gap_tissue_ : 0.0;
+  return mesh_->tetAlive(t) ? gapOf(t) + gap_tissue_ : 0.0;
+}
+
+std::pair<double, double> Cutter::gapReach(const BladeSegment& from, const BladeSegment& to,
+                                           double step, double moved) const {
+  // How far from the sweep a tet can still take part in it: the wound's band (a vertex snapped
+  // or an edge crossing near a wound vertex), the fronts' shift, with room for the rounding
+  // tolerances of the tests (relative to the mean edge and to the sweep's size).
+  const double slack = 0.01 * mean_edge_ +
+                       1e-5 * ((from.tip - from.base).norm() + (to.tip - to.base).norm() + step);
+  const double reach = std::max(snap_distance_, frontShift()) + slack + moved;
+  // Only a tet holding a vertex on a wound takes part from within the wound's band.
+  return {reach, std::max(reach, wound_snap_distance_ + slack + moved)};
+}
+
+bool Cutter::gapTakes(int t, double gap, double reach, double wound_reach) const {
+  // A pending tet's pieces are always looked at: the tet, not a piece, decides its part.
+  return gap <= reach || isPendingPiece(t) ||
+         (gap <= wound_reach && mesh_->tetAlive(t) &&
+          std::any_of(mesh_->tet(t).begin(), mesh_->tet(t).end(),
+                      [&](int v) { return onWound(v); }));
 }
 
 double Cutter::gapOf(int t) const {
@@ -316,21 +403,12 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
   if (gapsRetaken(from, step)) retakeGaps(from);
   gap_blade_ += step;
   gap_last_ = to;
-  // How far from the sweep a tet can still take part in it: the wound's band (a vertex snapped
-  // or an edge crossing near a wound vertex), the fronts' shift, with room for the rounding
-  // tolerances of the tests (relative to the mean edge and to the sweep's size).
-  const double slack = 0.01 * mean_edge_ +
-                       1e-5 * ((from.tip - from.base).norm() + (to.tip - to.base).norm() + step);
-  const double moved = gap_blade_ + gap_tissue_;
-  const double reach = std::max(snap_distance_, frontShift()) + slack + moved;
-  // Only a tet holding a vertex on a wound takes part from within the wound's band.
-  const double wound_reach = std::max(reach, wound_snap_distance_ + slack + moved);
+  const auto [reach, wound_reach] = gapReach(from, to, step, gap_blade_ + gap_tissue_);
   if (!(wound_reach < gap_far_)) {
     // A blade so long that the tests' rounding room reaches past gap_far_ (kilometres): every
-    // gap measured, none carried.
-    for (std::size_t i = 0; i < near_cache_.size(); ++i)
-      near_gap_[i] = mesh_->tetAlive(near_cache_[i]) ? gapOf(near_cache_[i]) + gap_tissue_ : 0.0;
+    // gap measured in full, none carried.
     gap_far_ = HUGE_VAL;
+    for (std::size_t i = 0; i < near_cache_.size(); ++i) near_gap_[i] = dueGap(i);
     near_close_.resize(near_cache_.size());
     std::iota(near_close_.begin(), near_close_.end(), 0);
   }
@@ -355,14 +433,9 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
     if (!take_close && close != near_close_.end() && *close == *far) ++close;
     const std::size_t i = take_close ? *close++ : *far++;
     const int t = near_cache_[i];
-    // A pending tet's pieces are always looked at: the tet, not a piece, decides its part.
-    const double gap = gapAt(i);
-    if (!(gap <= reach) && !isPendingPiece(t) &&
-        !(gap <= wound_reach && mesh_->tetAlive(t) &&
-          std::any_of(mesh_->tet(t).begin(), mesh_->tet(t).end(),
-                      [&](int v) { return onWound(v); })))
-      continue;
-    if (mesh_->tetAlive(t) && tetBoxMeets(*mesh_, t, lo, hi)) out->push_back(t);
+    if (gapTakes(t, gapAt(i), reach, wound_reach) && mesh_->tetAlive(t) &&
+        tetBoxMeets(*mesh_, t, lo, hi))
+      out->push_back(t);
   }
 }
 
@@ -1306,35 +1379,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   // only the crossing test's own rounding margin). The box around a long, tilted blade holds many
   // more tets; the others are left out before the per-vertex and per-edge work (they would do
   // nothing there).
-  const double tol = 1e-9 * mean_edge_;
-  const double narrow = snap_distance_ * (1.0 + 1e-9) + tol;
-  const double wide = std::max(snap_distance_, wound_snap_distance_) * (1.0 + 1e-9) + tol;
-  struct Axis {
-    Vec3 n;
-    double at;
-  };
-  std::array<std::array<Axis, 4>, 2> axes;
-  std::array<bool, 2> usable{false, false};
-  std::array<double, 2> side_tol{0.0, 0.0};
-  for (int k = 0; k < 2; ++k) {
-    const Vec3 n = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
-    if (!(n.norm() > 0)) continue;
-    usable[k] = true;
-    const Vec3 unit = n.normalized();
-    axes[k][0] = {unit, unit.dot(tris[k][0])};
-    double longest = 0.0;
-    for (int e = 0; e < 3; ++e) {
-      const Vec3 &p = tris[k][e], &q = tris[k][(e + 1) % 3], &r = tris[k][(e + 2) % 3];
-      longest = std::max(longest, (q - p).norm());
-      Vec3 m = (q - p).cross(unit);
-      if (m.dot(r - p) > 0) m = -m;  // away from the triangle
-      const double len = m.norm();
-      if (len > 0) m /= len;
-      axes[k][e + 1] = {m, m.dot(p)};
-    }
-    // segmentCrossesTriangle lets barycentric coordinates down to -1e-9 through.
-    side_tol[k] = 1e-6 * longest + tol;
-  }
+  const auto [narrow, wide] = sweepBands();
+  const SweepAxes axes(tris, 1e-9 * mean_edge_);
   const SweptPlanes planes(tris);
   // Each vertex's place along the eight axes and its distances from the two planes, taken once a
   // tick (the near tets share most of their vertices; the sweep moves none): per vertex slot,
@@ -1348,9 +1394,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       axis_slot_[v] = static_cast<int>(axis_values_.size());
       const Vec3& x = mesh_->current(v);
       std::array<double, 10> at{};
-      for (int k = 0; k < 2; ++k)
-        if (usable[k])
-          for (int e = 0; e < 4; ++e) at[4 * k + e] = axes[k][e].n.dot(x) - axes[k][e].at;
+      axes.values(x, at.data());
       at[8] = planes.distance(0, x);
       at[9] = planes.distance(1, x);
       axis_values_.push_back(at);
@@ -1360,34 +1404,14 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   // The distance of the tet from the plane of a swept triangle it lies over (infinity: none).
   auto reach = [&](const TetVerts& tv) {
     const std::array<int, 4> slot{slotOf(tv[0]), slotOf(tv[1]), slotOf(tv[2]), slotOf(tv[3])};
-    double best = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < 2; ++k) {
-      if (!usable[k]) continue;
-      bool over = true;
-      for (int e = 1; e < 4 && over; ++e) {
-        double lo = std::numeric_limits<double>::infinity();
-        for (int i : slot) lo = std::min(lo, axis_values_[i][4 * k + e]);
-        over = lo <= side_tol[k];
-      }
-      if (!over) continue;
-      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-      for (int i : slot) {
-        const double d = axis_values_[i][4 * k];
-        lo = std::min(lo, d);
-        hi = std::max(hi, d);
-      }
-      best = std::min(best, std::max({0.0, lo, -hi}));
-    }
-    return best;
+    return axes.reach({axis_values_[slot[0]].data(), axis_values_[slot[1]].data(),
+                       axis_values_[slot[2]].data(), axis_values_[slot[3]].data()});
   };
   std::vector<TetVerts>& corners = sweep_corners_;
   corners.clear();
   for (const Coarse& c : near) {
     const TetVerts tv = cornersOf(c);
-    const double gap = reach(tv);
-    if (gap <= narrow ||
-        (gap <= wide && std::any_of(tv.begin(), tv.end(), [&](int v) { return onWound(v); })))
-      corners.push_back(tv);
+    if (bandTakes(tv, reach(tv), narrow, wide)) corners.push_back(tv);
   }
   const Vec3 normal = sweepNormal(tris);
   // Each vertex once, in the order of the tets (a second look would decide the same); one
@@ -1403,6 +1427,71 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
       trySnap(v, tris, prepared, normal);
     }
   crossEdges(from, to, tris, prepared, normal, lo, hi, nullptr, change);
+}
+
+std::pair<double, double> Cutter::sweepBands() const {
+  const double tol = 1e-9 * mean_edge_;
+  return {snap_distance_ * (1.0 + 1e-9) + tol,
+          std::max(snap_distance_, wound_snap_distance_) * (1.0 + 1e-9) + tol};
+}
+
+bool Cutter::bandTakes(const TetVerts& tv, double reach, double narrow, double wide) const {
+  return reach <= narrow ||
+         (reach <= wide && std::any_of(tv.begin(), tv.end(), [&](int v) { return onWound(v); }));
+}
+
+int Cutter::sweepLooksAt(int v, const BladeSegment& from, const BladeSegment& to,
+                         const std::array<Triangle, 2>& tris) const {
+  // The sweep passes v to trySnap() when v lies within the bands of a swept triangle's plane and
+  // is a corner of a coarse tet it keeps: one of sweepQuery()'s tets (in the near cache, in its
+  // close list or a pending tet's piece beyond it, its gap within reach, its box meeting the
+  // sweep's), or the pending tet of one, whose corners' reach is within the band. The same tests
+  // on v's own tets, with the gaps and the cache as the sweep would find them; where it would
+  // take either anew first, the answer is not known here.
+  const SweptPlanes planes(tris);
+  const double band = std::max(snap_distance_, wound_snap_distance_);
+  const Vec3& x = mesh_->current(v);
+  if (std::abs(planes.distance(0, x)) > band && std::abs(planes.distance(1, x)) > band) return 0;
+  Vec3 lo = from.base.cwiseMin(from.tip).cwiseMin(to.base).cwiseMin(to.tip);
+  Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
+  lo.array() -= snap_distance_;
+  hi.array() += snap_distance_;
+  if (!near_cache_valid_ || (lo.array() < near_cache_lo_.array()).any() ||
+      (hi.array() > near_cache_hi_.array()).any())
+    return -1;  // cacheNear() would take the cache anew
+  const double step = std::max((to.base - from.base).norm(), (to.tip - from.tip).norm());
+  if (gapsRetaken(from, step)) return -1;
+  const auto [reach, wound_reach] = gapReach(from, to, step, gap_blade_ + step + gap_tissue_);
+  if (!(wound_reach < gap_far_)) return -1;  // every gap measured anew
+  auto queried = [&](int t) {
+    const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
+    if (it == near_cache_.end() || *it != t) return false;
+    const std::size_t i = it - near_cache_.begin();
+    const bool close =
+        std::binary_search(near_close_.begin(), near_close_.end(), static_cast<int>(i));
+    if (!close && !(isPendingPiece(t) && !(near_gap_[i] <= gap_far_))) return false;
+    const double gap = near_gap_[i] != kGapDue ? near_gap_[i] : dueGap(i);
+    return gapTakes(t, gap, reach, wound_reach) && mesh_->tetAlive(t) &&
+           tetBoxMeets(*mesh_, t, lo, hi);
+  };
+  const auto [narrow, wide] = sweepBands();
+  const SweepAxes axes(tris, 1e-9 * mean_edge_);
+  auto kept = [&](const TetVerts& tv) {
+    std::array<std::array<double, 8>, 4> at;
+    for (int k = 0; k < 4; ++k) axes.values(mesh_->current(tv[k]), at[k].data());
+    return bandTakes(tv, axes.reach({at[0].data(), at[1].data(), at[2].data(), at[3].data()}),
+                     narrow, wide);
+  };
+  for (int t : mesh_->vertexTets(v)) {
+    if (!isPendingPiece(t)) {
+      if (queried(t) && kept(mesh_->tet(t))) return 1;
+      continue;
+    }
+    const Pending& p = pending_.at(pending_of_[t]);
+    if (localIndex(p.cut.corner, v) < 0) continue;  // v inside it: not one of its corners
+    if (std::any_of(p.pieces.begin(), p.pieces.end(), queried) && kept(p.cut.corner)) return 1;
+  }
+  return 0;
 }
 
 Vec3 Cutter::sweepNormal(const std::array<Triangle, 2>& tris) const {
@@ -1715,27 +1804,38 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
         (!crease || out) &&
         ((nearPlane(0, x, snap_distance_) && pointNearTriangle(x, prepared[0], snap_distance_)) ||
          (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, prepared[1], snap_distance_)));
+    // Whether the sweep would pass v to trySnap(), as far as it is in doubt: 1 yes, 0 no (the
+    // vertex is left alone), -1 not known here (the tick is swept).
+    auto looked = [&] {
+      const int answer = sweepLooksAt(v, from, to, tris);
+      if (answer < 0) out->more = true;
+      return answer;
+    };
     if (crease || over) {
       // A vertex over a swept triangle within the snap distance lies in the sweep's box and over
       // the triangle, with every tet around it: the sweep looks at it. One taken at the crease
-      // alone (see trySnap()) may lie over none of them: the tick is swept.
+      // alone (see trySnap()) may lie over none of them: the sweep's filters decide.
       if (out && !over) {
-        out->more = true;
-        return false;
+        const int answer = looked();
+        if (answer < 0) return false;
+        if (answer == 0) continue;
       }
       if (vertexPasses(v)) return false;
       continue;
     }
     // Within the wound's wider band, the tets around it may lie outside the sweep's box (grown by
-    // the snap distance only): the tick is swept.
+    // the snap distance only): the sweep's filters decide.
     if (onWound(v) &&
         ((nearPlane(0, x, wound_snap_distance_) &&
           pointNearTriangle(x, prepared[0], wound_snap_distance_)) ||
          (nearPlane(1, x, wound_snap_distance_) &&
           pointNearTriangle(x, prepared[1], wound_snap_distance_))) &&
         woundFacing(v, normal)) {
-      if (out) out->more = true;
-      return false;
+      if (!out) return false;
+      const int answer = looked();
+      if (answer < 0) return false;
+      if (answer == 0) continue;
+      if (vertexPasses(v)) return false;
     }
   }
   double s;
