@@ -279,6 +279,8 @@ class TetMesh {
   std::vector<TetVerts> merge_moved_;
   // restack()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
   std::vector<int> move_place_, move_vertices_;
+  std::vector<unsigned> vertex_mark_;  // per vertex slot, the restack() call that noted it
+  unsigned vertex_mark_call_ = 0;
   std::vector<TetVerts> move_tets_;
   std::vector<std::array<int, 4>> move_neighbors_;
   int num_vertices_ = 0, num_tets_ = 0, num_boundary_faces_ = 0, reoriented_ = 0;

@@ -178,7 +178,8 @@ class CollapseQueue {
   StampedTable<long long> refused_;
   std::vector<std::pair<TetVerts, long long>> queued_;  // per tet slot: the entry in the heap
   std::vector<int> moves_;  // smoothing moves per vertex (bounded: no cycling)
-  std::vector<int> around_scratch_;  // touched()'s: the vertices of a star
+  std::vector<unsigned> around_seen_;  // touched()'s: per vertex slot, the call that marked it
+  unsigned around_call_ = 0;
   // A collapse's, flip's or move's record, emptied before each use.
   ChangeRecord step_change_;
   // flipBest()'s: the candidate tried, the best so far, the flip's vertices (kept for their room).

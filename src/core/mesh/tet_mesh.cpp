@@ -644,22 +644,29 @@ void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecor
       }
     }
   }
+  // The star's vertices (and the copy) once each, found by a mark: each one's list is mended on
+  // its own, so their order does not matter (a sort had cost more than the mending).
   std::vector<int>& verts = move_vertices_;
   verts.clear();
+  nextStamp(&vertex_mark_, &vertex_mark_call_, vertex_tets_.size());
+  auto note = [&](int w) {
+    if (vertex_mark_[w] == vertex_mark_call_) return;
+    vertex_mark_[w] = vertex_mark_call_;
+    verts.push_back(w);
+  };
   for (TetVerts& tv : move_tets_) {
-    verts.insert(verts.end(), tv.begin(), tv.end());
-    for (int& x : tv)
+    for (int& x : tv) {
+      note(x);
       if (x == v) x = copy;
+    }
   }
-  if (copy != v) verts.push_back(copy);
+  if (copy != v) note(copy);
   for (int i = 0; i < n; ++i) {
     tets_[star[n - 1 - i]] = move_tets_[i];
     measureTet(star[n - 1 - i]);  // a moved v moves its star (moveVertex)
     neighbors_[star[n - 1 - i]] = move_neighbors_[i];
   }
   // Each vertex of the star: its other tets in order, then the star's slots in the order taken.
-  std::sort(verts.begin(), verts.end());
-  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
   for (int w : verts) {
     std::vector<int>& list = vertex_tets_[w];
     list.erase(std::remove_if(list.begin(), list.end(), inStar), list.end());

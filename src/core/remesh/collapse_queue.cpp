@@ -93,14 +93,15 @@ void CollapseQueue::queueTet(int t) {
 void CollapseQueue::touched(int s, const std::function<bool(int)>& created_by_cut) {
   // Everything around s changed: old entries there go stale, its bad tets requeue.
   growSlots(&vertex_stamp_, mesh_->vertexSlots(), {});
-  // Each vertex of its star once (sorted and made unique in a kept buffer: no allocation).
-  std::vector<int>& around = around_scratch_;
-  around.clear();
+  // Each vertex of its star once, found by a mark (in any order: each stamp goes up by one; a
+  // sort to make the list unique had cost more than the rest of the call).
+  nextStamp(&around_seen_, &around_call_, mesh_->vertexSlots());
   for (int t : mesh_->vertexTets(s))
-    for (int v : mesh_->tet(t)) around.push_back(v);
-  std::sort(around.begin(), around.end());
-  around.erase(std::unique(around.begin(), around.end()), around.end());
-  for (int v : around) ++vertex_stamp_[v];
+    for (int v : mesh_->tet(t))
+      if (around_seen_[v] != around_call_) {
+        around_seen_[v] = around_call_;
+        ++vertex_stamp_[v];
+      }
   for (int t : mesh_->vertexTets(s))
     if (created_by_cut(t)) queueTet(t);
 }
@@ -222,7 +223,7 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
   counts_.removed_tetrahedra +=
       static_cast<int>(best.removed.size()) - static_cast<int>(best.added.size());
   change->append(local);
-  // Their vertices once each, in increasing order (touched() uses around_scratch_ itself).
+  // Their vertices once each, in increasing order (touched() marks vertices itself).
   std::vector<int>& verts = flip_verts_;
   verts.clear();
   for (int a : added)
