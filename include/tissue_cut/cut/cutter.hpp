@@ -301,11 +301,8 @@ class Cutter {
                                      double step, double moved) const;
   /// Whether sweepQuery() takes tet t with this gap.
   bool gapTakes(int t, double gap, double reach, double wound_reach) const;
-  /// The sweep's bands around a swept triangle's plane: the snap distance's, and the wound's
-  /// (for a tet holding a wound vertex), with room for rounding.
-  std::pair<double, double> sweepBands() const;
-  /// Whether the sweep keeps coarse tet tv, at this reach (see sweep()) from a swept triangle.
-  bool bandTakes(const TetVerts& tv, double reach, double narrow, double wide) const;
+  /// Whether a vertex of tv is on a wound.
+  bool anyOnWound(const TetVerts& tv) const;
   BladeSegment gap_ref_, gap_last_;
   bool gap_valid_ = false;
   double gap_blade_ = 0.0, gap_tissue_ = 0.0;

@@ -36,7 +36,8 @@ struct SweptPlanes {
 // The sweep's filter of tets (see sweep()): each usable swept triangle's plane and its three
 // in-plane side normals, pointing away from it, as separating axes, with the room the crossing
 // test's rounding needs in the plane. A point's place along the eight axes is values(); a tet's
-// distance from the plane of a triangle it lies over, from its corners' places, reach().
+// distance from the plane of a triangle it lies over, from its corners' places, reach(); whether
+// the sweep keeps a tet at that distance, keeps().
 struct SweepAxes {
   struct Axis {
     Vec3 n;
@@ -45,7 +46,14 @@ struct SweepAxes {
   std::array<std::array<Axis, 4>, 2> axes;
   std::array<bool, 2> usable{false, false};
   std::array<double, 2> side_tol{0.0, 0.0};
-  SweepAxes(const std::array<Triangle, 2>& tris, double tol) {
+  // The bands around a plane, with room for rounding: the snap distance's, and the wound's (for a
+  // tet holding a wound vertex).
+  double narrow = 0.0, wide = 0.0;
+  SweepAxes(const std::array<Triangle, 2>& tris, double snap, double wound_snap,
+            double mean_edge) {
+    const double tol = 1e-9 * mean_edge;
+    narrow = snap * (1.0 + 1e-9) + tol;
+    wide = std::max(snap, wound_snap) * (1.0 + 1e-9) + tol;
     for (int k = 0; k < 2; ++k) {
       const Vec3 n = (tris[k][1] - tris[k][0]).cross(tris[k][2] - tris[k][0]);
       if (!(n.norm() > 0)) continue;
@@ -94,7 +102,19 @@ struct SweepAxes {
     }
     return best;
   }
+  // wound(): whether the tet holds a wound vertex (asked only where it decides).
+  template <typename Wound>
+  bool keeps(double reach, const Wound& wound) const {
+    return reach <= narrow || (reach <= wide && wound());
+  }
 };
+
+// The sweep's box from `from` to `to`: the blade's four ends, grown by the snap distance.
+std::pair<Vec3, Vec3> sweepBox(const BladeSegment& from, const BladeSegment& to, double snap) {
+  const Vec3 lo = from.base.cwiseMin(from.tip).cwiseMin(to.base).cwiseMin(to.tip);
+  const Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
+  return {lo.array() - snap, hi.array() + snap};
+}
 
 void renameIn(TetCut* cut, int from, int to) {
   for (int& v : cut->corner)
@@ -334,9 +354,7 @@ std::pair<double, double> Cutter::gapReach(const BladeSegment& from, const Blade
 bool Cutter::gapTakes(int t, double gap, double reach, double wound_reach) const {
   // A pending tet's pieces are always looked at: the tet, not a piece, decides its part.
   return gap <= reach || isPendingPiece(t) ||
-         (gap <= wound_reach && mesh_->tetAlive(t) &&
-          std::any_of(mesh_->tet(t).begin(), mesh_->tet(t).end(),
-                      [&](int v) { return onWound(v); }));
+         (gap <= wound_reach && mesh_->tetAlive(t) && anyOnWound(mesh_->tet(t)));
 }
 
 double Cutter::gapOf(int t) const {
@@ -1349,10 +1367,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   if (triangleArea(tris[0]) <= tiny && triangleArea(tris[1]) <= tiny) return;
   const std::array<PreparedTriangle, 2> prepared{PreparedTriangle(tris[0]),
                                                  PreparedTriangle(tris[1])};
-  Vec3 lo = from.base.cwiseMin(from.tip).cwiseMin(to.base).cwiseMin(to.tip);
-  Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
-  lo.array() -= snap_distance_;
-  hi.array() += snap_distance_;
+  const auto [lo, hi] = sweepBox(from, to, snap_distance_);
   if (only) {
     // The one vertex first, as the sweep snaps its vertices before it crosses edges.
     const Vec3 normal = sweepNormal(tris);
@@ -1379,8 +1394,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   // only the crossing test's own rounding margin). The box around a long, tilted blade holds many
   // more tets; the others are left out before the per-vertex and per-edge work (they would do
   // nothing there).
-  const auto [narrow, wide] = sweepBands();
-  const SweepAxes axes(tris, 1e-9 * mean_edge_);
+  const SweepAxes axes(tris, snap_distance_, wound_snap_distance_, mean_edge_);
   const SweptPlanes planes(tris);
   // Each vertex's place along the eight axes and its distances from the two planes, taken once a
   // tick (the near tets share most of their vertices; the sweep moves none): per vertex slot,
@@ -1411,7 +1425,7 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   corners.clear();
   for (const Coarse& c : near) {
     const TetVerts tv = cornersOf(c);
-    if (bandTakes(tv, reach(tv), narrow, wide)) corners.push_back(tv);
+    if (axes.keeps(reach(tv), [&] { return anyOnWound(tv); })) corners.push_back(tv);
   }
   const Vec3 normal = sweepNormal(tris);
   // Each vertex once, in the order of the tets (a second look would decide the same); one
@@ -1429,15 +1443,8 @@ void Cutter::sweep(const BladeSegment& from, const BladeSegment& to, ChangeRecor
   crossEdges(from, to, tris, prepared, normal, lo, hi, nullptr, change);
 }
 
-std::pair<double, double> Cutter::sweepBands() const {
-  const double tol = 1e-9 * mean_edge_;
-  return {snap_distance_ * (1.0 + 1e-9) + tol,
-          std::max(snap_distance_, wound_snap_distance_) * (1.0 + 1e-9) + tol};
-}
-
-bool Cutter::bandTakes(const TetVerts& tv, double reach, double narrow, double wide) const {
-  return reach <= narrow ||
-         (reach <= wide && std::any_of(tv.begin(), tv.end(), [&](int v) { return onWound(v); }));
+bool Cutter::anyOnWound(const TetVerts& tv) const {
+  return std::any_of(tv.begin(), tv.end(), [&](int v) { return onWound(v); });
 }
 
 int Cutter::sweepLooksAt(int v, const BladeSegment& from, const BladeSegment& to,
@@ -1452,16 +1459,17 @@ int Cutter::sweepLooksAt(int v, const BladeSegment& from, const BladeSegment& to
   const double band = std::max(snap_distance_, wound_snap_distance_);
   const Vec3& x = mesh_->current(v);
   if (std::abs(planes.distance(0, x)) > band && std::abs(planes.distance(1, x)) > band) return 0;
-  Vec3 lo = from.base.cwiseMin(from.tip).cwiseMin(to.base).cwiseMin(to.tip);
-  Vec3 hi = from.base.cwiseMax(from.tip).cwiseMax(to.base).cwiseMax(to.tip);
-  lo.array() -= snap_distance_;
-  hi.array() += snap_distance_;
+  // (Named values, not structured bindings: the lambdas below capture them.)
+  const std::pair<Vec3, Vec3> box = sweepBox(from, to, snap_distance_);
+  const Vec3 &lo = box.first, &hi = box.second;
   if (!near_cache_valid_ || (lo.array() < near_cache_lo_.array()).any() ||
       (hi.array() > near_cache_hi_.array()).any())
     return -1;  // cacheNear() would take the cache anew
   const double step = std::max((to.base - from.base).norm(), (to.tip - from.tip).norm());
   if (gapsRetaken(from, step)) return -1;
-  const auto [reach, wound_reach] = gapReach(from, to, step, gap_blade_ + step + gap_tissue_);
+  const std::pair<double, double> reaches =
+      gapReach(from, to, step, gap_blade_ + step + gap_tissue_);
+  const double reach = reaches.first, wound_reach = reaches.second;
   if (!(wound_reach < gap_far_)) return -1;  // every gap measured anew
   auto queried = [&](int t) {
     const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
@@ -1474,13 +1482,12 @@ int Cutter::sweepLooksAt(int v, const BladeSegment& from, const BladeSegment& to
     return gapTakes(t, gap, reach, wound_reach) && mesh_->tetAlive(t) &&
            tetBoxMeets(*mesh_, t, lo, hi);
   };
-  const auto [narrow, wide] = sweepBands();
-  const SweepAxes axes(tris, 1e-9 * mean_edge_);
+  const SweepAxes axes(tris, snap_distance_, wound_snap_distance_, mean_edge_);
   auto kept = [&](const TetVerts& tv) {
     std::array<std::array<double, 8>, 4> at;
     for (int k = 0; k < 4; ++k) axes.values(mesh_->current(tv[k]), at[k].data());
-    return bandTakes(tv, axes.reach({at[0].data(), at[1].data(), at[2].data(), at[3].data()}),
-                     narrow, wide);
+    return axes.keeps(axes.reach({at[0].data(), at[1].data(), at[2].data(), at[3].data()}),
+                      [&] { return anyOnWound(tv); });
   };
   for (int t : mesh_->vertexTets(v)) {
     if (!isPendingPiece(t)) {
@@ -1627,8 +1634,7 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   const double length = (at.tip - at.base).norm();
   const double near = quiet_reach_ + quiet_slack_;
   // The widest band of its vertices: the wound's only where one is on a wound.
-  const double band =
-      std::any_of(tv.begin(), tv.end(), [&](int v) { return onWound(v); }) ? wide : snap_distance_;
+  const double band = anyOnWound(tv) ? wide : snap_distance_;
   if (!(lower <= near + band)) return;
   const std::array<Vec3, 4> x{mesh_->current(tv[0]), mesh_->current(tv[1]), mesh_->current(tv[2]),
                               mesh_->current(tv[3])};
