@@ -915,6 +915,31 @@ TEST(Cutting, ACutterNeverToldHowTheTissueMovesSweepsEveryTick) {
   }
 }
 
+// The kept features reach a tenth of a mean edge around the blade only while the sweeps' boxes
+// stay inside the near cache. Where the blade nears the cache's edge, the cache and the gaps are
+// taken anew before the features are (Cutter::roomAround): the blade leaving the cache does not
+// send ticks to a full sweep. Before it, the strokes below were swept on 35 and 37 of their 500
+// ticks; with it, on 4.
+TEST(Cutting, TheNearCachesEdgeSendsNoTickToASweep) {
+  const MeshData block = makeBlock();
+  for (const double sigma : {0.0, 0.00003}) {
+    SCOPED_TRACE("tremble " + std::to_string(sigma) + " m");
+    const std::vector<BladeSegment> blades = trembling(12, sigma, false);
+    TetMesh mesh(block.V, block.T);
+    const CutCounts counts = cutAlong(blades, CutterOptions{}, &mesh);
+    // The first tick has no blade before it (it is not swept), and the last, the lift, ends the
+    // stroke: neither counts.
+    const long long ticks = static_cast<long long>(blades.size()) - 1;
+    const long long swept = ticks - counts.quiet_ticks - counts.feature_ticks;
+    std::printf("tremble %g m: %lld of %lld ticks swept, %lld quiet, %lld acted on features "
+                "alone, %lld quiet reaches taken anew\n",
+                sigma, swept, ticks, counts.quiet_ticks, counts.feature_ticks,
+                counts.quiet_refreshes);
+    EXPECT_GT(counts.cut_tetrahedra, 50);
+    EXPECT_LE(swept, 6);
+  }
+}
+
 // A blade trembling hard inside its own wound leaves hundreds of vertices waiting to split (the
 // cut around them stays incomplete: sheets meeting at a crack front). They are tried again only
 // near what changed since the last try, not all of them on every tick that changes anything

@@ -250,8 +250,11 @@ class Cutter {
   void sizeScratch();
   /// The grid's query, from candidates kept while the blade stays near (see near_cache_).
   void gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out);
-  /// Makes near_cache_ hold the grid's candidates around [lo, hi].
-  void cacheNear(const Vec3& lo, const Vec3& hi);
+  /// Makes near_cache_ hold the grid's candidates around [lo, hi] (anew: even where it does).
+  void cacheNear(const Vec3& lo, const Vec3& hi, bool anew = false);
+  /// Before the quiet features are taken around the blade `at`: where the near cache's edge
+  /// would cut the quiet reach short, the cache and the gaps are taken anew around it.
+  void roomAround(const BladeSegment& at);
   /// gridQuery for the sweep from `from` to `to`, leaving out tets too far from the blade to
   /// take any part in it (see near_gap_).
   void sweepQuery(const BladeSegment& from, const BladeSegment& to, const Vec3& lo,

@@ -293,10 +293,10 @@ void Cutter::keepClose(std::size_t place, bool inserted) {
     near_close_.insert(at, i);
 }
 
-void Cutter::cacheNear(const Vec3& lo, const Vec3& hi) {
+void Cutter::cacheNear(const Vec3& lo, const Vec3& hi, bool anew) {
   // The blade moves a little each tick: the grid's candidates around a box larger by half a mean
   // edge serve the ticks while it stays inside.
-  if (!near_cache_valid_ || (lo.array() < near_cache_lo_.array()).any() ||
+  if (anew || !near_cache_valid_ || (lo.array() < near_cache_lo_.array()).any() ||
       (hi.array() > near_cache_hi_.array()).any()) {
     near_cache_lo_ = lo.array() - 0.5 * mean_edge_;
     near_cache_hi_ = hi.array() + 0.5 * mean_edge_;
@@ -317,6 +317,21 @@ void Cutter::cacheNear(const Vec3& lo, const Vec3& hi) {
     }
     gap_retake_ = true;
   }
+}
+
+void Cutter::roomAround(const BladeSegment& at) {
+  // quietReach() keeps the features within its reach of `at` only while the sweeps' boxes stay
+  // inside the cache; near the cache's edge the reach shrinks to nothing, and the ticks are
+  // swept until one sweep's box leaves the cache and takes it anew. Taken anew here first, the
+  // reach is whole. (The cache and the gaps only filter: what the sweeps find is the same.)
+  if (!closeKept()) return;
+  const Vec3 lo = at.base.cwiseMin(at.tip), hi = at.base.cwiseMax(at.tip);
+  const double margin =
+      std::min((lo - near_cache_lo_).minCoeff(), (near_cache_hi_ - hi).minCoeff());
+  if (margin - snap_distance_ >= options_.quiet_reach * mean_edge_) return;
+  const auto [box_lo, box_hi] = sweepBox(at, at, snap_distance_);
+  cacheNear(box_lo, box_hi, true);
+  retakeGaps(at);
 }
 
 void Cutter::gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out) {
@@ -2064,6 +2079,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
     // tick's sweep would have done so (see sweepQuery()), from the same blade: as it would.
     if (options_.skip_quiet && quiet_valid_ && told_motion_ && !stroke_start_ &&
         !(quiet_moved_ + step < quiet_reach_)) {
+      roomAround(*previous_);
       if (gapsRetaken(*previous_, step)) retakeGaps(*previous_);
       ++counts_.quiet_refreshes;
       quiet_valid_ = quietReach(*previous_) > 0.0;
@@ -2126,6 +2142,7 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   // or a new stroke looks afresh.
   if (swept && !quiet && !targeted && options_.skip_quiet &&
       !(quiet_valid_ && quiet_moved_ < 0.5 * quiet_reach_)) {
+    roomAround(*blade);
     quiet_valid_ = quietReach(*blade) > 0.0;
     quiet_moved_ = 0.0;
   } else if (!swept) {
