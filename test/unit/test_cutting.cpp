@@ -502,6 +502,41 @@ TEST(SweepGeometry, KeptTetPlanesAnswerAsSegmentMeetsTet) {
   EXPECT_FALSE(segmentMeetsTet(Vec3(0.2, 0.2, -5e-4), Vec3(0.3, 0.2, -9e-4), o, x, y, z, 1e-4));
 }
 
+// A segment that moves on a little at a time, as the blade does from tick to tick: TetPlanes
+// keeps how deep inside the last segment that met the tet was, and answers yes without the
+// planes while both ends moved less than that. The answers must still be segmentMeetsTet()'s, as
+// the segment walks in, through and out of the tet, with the tolerance changing now and then.
+TEST(SweepGeometry, KeptTetPlanesFollowASegmentMovingOnAsSegmentMeetsTet) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> corner(-1.0, 1.0), unit(-1.0, 1.0);
+  int meets = 0, misses = 0, changes = 0;
+  for (int tet = 0; tet < 100; ++tet) {
+    std::array<Vec3, 4> p;
+    for (Vec3& x : p) x = Vec3(corner(rng), corner(rng), corner(rng));
+    const Vec3 centre = 0.25 * (p[0] + p[1] + p[2] + p[3]);
+    const Vec3 along(unit(rng), unit(rng), unit(rng));
+    Vec3 a = centre - along, b = centre + along;
+    const Vec3 drift = 0.01 * Vec3(unit(rng), unit(rng), unit(rng));  // the stroke's way
+    const double step = tet % 2 ? 1e-3 : 2e-2;                         // and each tick's tremble
+    TetPlanes planes;
+    bool last = true;
+    for (int ask = 0; ask < 300; ++ask) {
+      a += drift + step * Vec3(unit(rng), unit(rng), unit(rng));
+      b += drift + step * Vec3(unit(rng), unit(rng), unit(rng));
+      const double tolerance = (ask / 50) % 2 ? 1e-3 : 0.0;
+      const bool expected = segmentMeetsTet(a, b, p[0], p[1], p[2], p[3], tolerance);
+      ASSERT_EQ(planes.meets(a, b, p[0], p[1], p[2], p[3], tolerance), expected)
+          << "tet " << tet << ", question " << ask;
+      (expected ? meets : misses) += 1;
+      changes += expected != last;
+      last = expected;
+    }
+  }
+  EXPECT_GT(meets, 5000);
+  EXPECT_GT(misses, 5000);
+  EXPECT_GT(changes, 100);  // walked out (and in again) many times
+}
+
 // The sweep looks again at a tet only once the blade's moves and the tissue's (as told) could
 // have brought it within reach. A cutter told nothing looks at every tet near the blade each
 // tick; one told that the tissue stays still reuses its bounds across ticks. Both must cut the

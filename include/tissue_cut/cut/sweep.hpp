@@ -72,6 +72,11 @@ class TetPlanes {
   std::array<Vec3, 4> corner_;  // the corners the planes were made from
   std::array<Vec3, 4> normal_;  // each face's outward unit normal (zero: a flat face)
   bool valid_ = false;
+  // The last segment found to meet the tet, and how far (less a margin for rounding) the point
+  // in the middle of its part inside lies within every plane: a segment whose ends are each
+  // closer than that to its ends meets the tet too, while the corners and the tolerance stay.
+  Vec3 met_p_, met_q_;
+  double met_depth2_ = -1.0, met_tolerance_ = 0.0;  // the depth squared (-1: none kept)
 };
 
 }  // namespace tissue_cut

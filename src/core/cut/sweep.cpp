@@ -131,23 +131,28 @@ bool TetPlanes::meets(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b
                       const Vec3& d, double tolerance) {
   // Clip the segment's parameter range against the four face planes (outward unit normals),
   // made only when the corners moved.
-  const Vec3 v[4] = {a, b, c, d};
+  const Vec3* const v[4] = {&a, &b, &c, &d};  // (not copied: most calls find the planes made)
   if (!valid_ || corner_[0] != a || corner_[1] != b || corner_[2] != c || corner_[3] != d) {
     const double orientation = signedVolume(a, b, c, d) >= 0 ? 1.0 : -1.0;
     for (int k = 0; k < 4; ++k) {
       const auto& f = kTetFace[k];
-      Vec3 n = orientation * (v[f[1]] - v[f[0]]).cross(v[f[2]] - v[f[0]]);
+      Vec3 n = orientation * (*v[f[1]] - *v[f[0]]).cross(*v[f[2]] - *v[f[0]]);
       const double len = n.norm();
       normal_[k] = len > 0 ? Vec3(n / len) : Vec3::Zero();
-      corner_[k] = v[k];
+      corner_[k] = *v[k];
     }
     valid_ = true;
+    met_depth2_ = -1.0;
+  } else if (tolerance == met_tolerance_ && (p - met_p_).squaredNorm() < met_depth2_ &&
+             (q - met_q_).squaredNorm() < met_depth2_) {
+    // The point at the same parameter moved less than its depth: inside still (most ticks).
+    return true;
   }
   double lo = 0.0, hi = 1.0;
   for (int k = 0; k < 4; ++k) {
     if (normal_[k] == Vec3::Zero()) continue;  // a flat face (len not > 0)
     const Vec3& n = normal_[k];
-    const Vec3& origin = v[kTetFace[k][0]];
+    const Vec3& origin = *v[kTetFace[k][0]];
     const double dp = n.dot(p - origin) - tolerance;  // inside when <= 0
     const double dq = n.dot(q - origin) - tolerance;
     if (dp > 0 && dq > 0) return false;
@@ -155,6 +160,20 @@ bool TetPlanes::meets(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b
     if (dq > 0) hi = std::min(hi, dp / (dp - dq));
     if (lo > hi) return false;
   }
+  // Kept for the next call: the depth of the middle of the part inside, less a margin far above
+  // the rounding of these sums (coordinates of up to `scale`).
+  const Vec3 x = p + 0.5 * (lo + hi) * (q - p);
+  double depth = HUGE_VAL, scale = std::max(p.cwiseAbs().maxCoeff(), q.cwiseAbs().maxCoeff());
+  for (int k = 0; k < 4; ++k) {
+    scale = std::max(scale, v[k]->cwiseAbs().maxCoeff());
+    if (normal_[k] != Vec3::Zero())
+      depth = std::min(depth, tolerance - normal_[k].dot(x - *v[kTetFace[k][0]]));
+  }
+  depth -= 1e-9 * scale;
+  met_depth2_ = depth > 0.0 ? depth * depth : -1.0;
+  met_tolerance_ = tolerance;
+  met_p_ = p;
+  met_q_ = q;
   return true;
 }
 
