@@ -477,9 +477,10 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
     removing_[t] = removing_stamp_;
   }
   auto removed = [this](int t) { return removing_[t] == removing_stamp_; };
-  std::vector<FaceKey>& new_faces = face_scratch_;
+  std::vector<std::pair<FaceKey, int>>& new_faces = face_scratch_;
   new_faces.clear();
-  for (const TetVerts& tv : add) {
+  for (std::size_t place = 0; place < add.size(); ++place) {
+    const TetVerts& tv = add[place];
     for (int i = 0; i < 4; ++i) {
       if (tv[i] < 0 || tv[i] >= vertexSlots() || !vertex_alive_[tv[i]])
         throw std::logic_error("TetMesh::replaceTets: dead vertex " + std::to_string(tv[i]));
@@ -491,22 +492,37 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
       throw std::logic_error("TetMesh::replaceTets: tet (" + std::to_string(tv[0]) + ", " +
                              std::to_string(tv[1]) + ", " + std::to_string(tv[2]) + ", " +
                              std::to_string(tv[3]) + ") has no positive rest volume");
-    for (const auto& f : kTetFace) new_faces.push_back(sortedFace(tv[f[0]], tv[f[1]], tv[f[2]]));
+    for (int f = 0; f < 4; ++f)
+      new_faces.emplace_back(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]),
+                             static_cast<int>(4 * place) + f);
   }
   std::sort(new_faces.begin(), new_faces.end());
+  // Each face once: how many tets would share it, and what each new tet will find across it
+  // (linkTet()'s search, done here once: the tet the count finds kept, or the other new one).
+  face_across_.assign(new_faces.size(), -1);
   for (std::size_t i = 0; i < new_faces.size();) {
-    const FaceKey key = new_faces[i];
+    const FaceKey key = new_faces[i].first;
+    const std::size_t first = i;
     int count = 0;
-    for (; i < new_faces.size() && sameVertices(new_faces[i], key); ++i) ++count;
+    for (; i < new_faces.size() && sameVertices(new_faces[i].first, key); ++i) ++count;
     int a = key[0], b = key[1], c = key[2];
     smallestStarFirst(&a, &b, &c);
-    int kept = 0;
+    int kept = 0, across = -1;
     for (int t : vertex_tets_[a])
-      if (!removed(t) && contains(tets_[t], b) && contains(tets_[t], c)) ++kept;
+      if (!removed(t) && contains(tets_[t], b) && contains(tets_[t], c)) {
+        ++kept;
+        across = t;
+      }
     if (count + kept > 2)
       throw std::logic_error("TetMesh::replaceTets: face (" + std::to_string(key[0]) + ", " +
                              std::to_string(key[1]) + ", " + std::to_string(key[2]) +
                              ") would be shared by " + std::to_string(count + kept) + " tets");
+    if (count == 2) {
+      face_across_[new_faces[first].second] = -2 - new_faces[first + 1].second;
+      face_across_[new_faces[first + 1].second] = -2 - new_faces[first].second;
+    } else {
+      face_across_[new_faces[first].second] = across;
+    }
   }
 
   for (int t : remove) {
@@ -518,13 +534,32 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
   std::vector<int>& ids = *ids_out;
   ids.clear();
   ids.reserve(add.size());
-  for (const TetVerts& tv : add) {
+  for (std::size_t place = 0; place < add.size(); ++place) {
+    const TetVerts& tv = add[place];
     int t = allocateTet();
     tets_[t] = tv;
     measureTet(t);
     tet_alive_[t] = 1;
     ++num_tets_;
-    linkTet(t);
+    // As linkTet(t) would link it, with what lies across each face known: a new tet made
+    // earlier is linked to it, one made later will be.
+    for (int v : tv) vertex_tets_[v].push_back(t);
+    for (int f = 0; f < 4; ++f) {
+      const int across = face_across_[4 * place + f];
+      const int other = across <= -2 ? (-2 - across) / 4 : -1;  // a new tet's place
+      if (across == -1 || (other >= 0 && other > static_cast<int>(place))) {
+        neighbors_[t][f] = -1;
+        ++num_boundary_faces_;
+        continue;
+      }
+      const int u = other >= 0 ? ids[other] : across;
+      const int g = other >= 0 ? (-2 - across) % 4
+                               : localFace(tets_[u], tv[kTetFace[f][0]], tv[kTetFace[f][1]],
+                                           tv[kTetFace[f][2]]);
+      neighbors_[t][f] = u;
+      neighbors_[u][g] = t;
+      --num_boundary_faces_;
+    }
     ids.push_back(t);
   }
   if (record) {
