@@ -370,11 +370,17 @@ class Cutter {
   struct QuietVertex {
     double at;
     int v;
+    // The moves at which a tick's test of it found it clear of the blade's bands by its
+    // distance then, plus that distance (less the wider band): watchedQuiet() leaves it until.
+    mutable double next = 0.0;
     auto key() const { return std::tie(at, v); }
   };
   struct QuietEdge {
     double at;
     int a, b;  // a < b
+    // The moves at which a tick's test of it found it clear of the blade by its distance then,
+    // plus that distance: no tick's quad reaches it before the moves do (watchedQuiet()).
+    mutable double next = 0.0;
     auto key() const { return std::tie(at, a, b); }
   };
   struct QuietFace {

@@ -1815,8 +1815,12 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     out->more = true;
     return true;
   };
+  // A vertex that passes lies within the wider band of a tick's quad (or of the line the blade
+  // came from, within the snap distance: an edge of that quad).
+  const double wide = std::max(snap_distance_, wound_snap_distance_);
   for (const QuietVertex& q : quiet_verts_) {
     if (q.at > reached) break;
+    if (q.next > reached) continue;  // clear of every quad's band until the moves reach `next`
     const int v = q.v;
     if (onCut(v) || !mesh_->vertexAlive(v)) continue;  // snapped since: only looks
     const Vec3& x = mesh_->current(v);
@@ -1846,35 +1850,45 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     }
     // Within the wound's wider band, the tets around it may lie outside the sweep's box (grown by
     // the snap distance only): the sweep's filters decide.
-    if (onWound(v) &&
-        ((nearPlane(0, x, wound_snap_distance_) &&
-          pointNearTriangle(x, prepared[0], wound_snap_distance_)) ||
-         (nearPlane(1, x, wound_snap_distance_) &&
-          pointNearTriangle(x, prepared[1], wound_snap_distance_))) &&
-        woundFacing(v, normal)) {
-      if (!out) return false;
-      const int answer = looked();
-      if (answer < 0) return false;
-      if (answer == 0) continue;
-      if (vertexPasses(v)) return false;
+    if (!(onWound(v) &&
+          ((nearPlane(0, x, wound_snap_distance_) &&
+            pointNearTriangle(x, prepared[0], wound_snap_distance_)) ||
+           (nearPlane(1, x, wound_snap_distance_) &&
+            pointNearTriangle(x, prepared[1], wound_snap_distance_))) &&
+          woundFacing(v, normal))) {
+      // Clear of this tick's quad: every later tick's lies within the moves since of this
+      // blade, and the vertex moves within the tissue's.
+      q.next = moved + distanceToSegment(x, to.base, to.tip) - wide;
+      continue;
     }
+    if (!out) return false;
+    const int answer = looked();
+    if (answer < 0) return false;
+    if (answer == 0) continue;
+    if (vertexPasses(v)) return false;
   }
   double s;
   Vec3 bary;
   for (const QuietEdge& q : quiet_edges_) {
     if (q.at > reached) break;
+    if (q.next > reached) continue;  // clear of every quad until the moves reach `next`
     if (onCut(q.a) || onCut(q.b) || !mesh_->vertexAlive(q.a) || !mesh_->vertexAlive(q.b)) continue;
     const Vec3 &pa = mesh_->current(q.a), &pb = mesh_->current(q.b);
-    for (int k = 0; k < 2; ++k) {
+    bool crosses = false;
+    for (int k = 0; k < 2 && !crosses; ++k) {
       // Ends strictly on both sides of the plane, or no crossing.
       const double da = prepared[k].n.dot(pa - tris[k][0]);
       const double db = prepared[k].n.dot(pb - tris[k][0]);
-      if (((da > 0 && db < 0) || (da < 0 && db > 0)) &&
-          segmentCrossesTriangle(pa, pb, prepared[k], 1e-9, &s, &bary)) {
-        if (!out) return false;
-        out->edges.emplace_back(q.a, q.b);
-        break;
-      }
+      crosses = ((da > 0 && db < 0) || (da < 0 && db > 0)) &&
+                segmentCrossesTriangle(pa, pb, prepared[k], 1e-9, &s, &bary);
+    }
+    if (crosses) {
+      if (!out) return false;
+      out->edges.emplace_back(q.a, q.b);
+    } else {
+      // Every later tick's quad lies within the moves since of this blade, and the edge moves
+      // within the tissue's: it meets none before the moves grow by its distance from it.
+      q.next = moved + segmentSegmentDistance(pa, pb, to.base, to.tip);
     }
   }
   if (out) {  // an edge may be kept twice, from two batches
