@@ -12,6 +12,7 @@
 #include "tissue_cut/mesh/tet_mesh.hpp"
 #include "tissue_cut/physics/mass_spring.hpp"
 #include "tissue_cut/remesh/collapse_queue.hpp"
+#include "tissue_cut/remesh/edge_collapse.hpp"
 #include "tissue_cut/remesh/flips.hpp"
 
 using namespace tissue_cut;
@@ -103,6 +104,32 @@ TEST(Flips, TwoThreeFlipIsRefusedWhereItCannotHelpOrWouldFold) {
   TetMesh joined(points(0.1, Vec3::Zero(), {Vec3(3, 0, 0), Vec3(3, 1, 0.5)}),
                  tets({{0, 1, 2, 3}, {0, 1, 2, 4}, {3, 4, 5, 6}}));
   EXPECT_FALSE(flip23(joined, 0, sharedFace(joined), -1.0, &flip));
+}
+
+// The rest positions decide the quality, but no flip may fold a tet where the tissue is now: the
+// pair above, sound and flippable at rest, with e carried in current positions to where de misses
+// the triangle abc (as in `aside`), is not flipped. (soundQualityInMesh() tests the current
+// corners only where they differ from the rest ones.)
+TEST(Flips, TwoThreeFlipIsRefusedWhereItWouldFoldInCurrentPositions) {
+  TetMesh mesh = pair(0.1);
+  FlipCandidate flip;
+  ASSERT_TRUE(flip23(mesh, 0, sharedFace(mesh), 1e-3, &flip));
+  const TetVerts new_tet = flip.added[0];
+  const double at_rest = soundQualityInMesh(mesh, new_tet);
+  EXPECT_GT(at_rest, 0.0);
+  EXPECT_EQ(at_rest, soundTetQuality(mesh.rest(new_tet[0]), mesh.rest(new_tet[1]),
+                                     mesh.rest(new_tet[2]), mesh.rest(new_tet[3]),
+                                     kMinCollapseRelativeVolume));
+  mesh.current(4) += Vec3(1.5, 0, 0);
+  EXPECT_FALSE(flip23(mesh, 0, sharedFace(mesh), 1e-3, &flip));
+  int folded = 0;  // the three tets around de: at least one turned over where the tissue is
+  for (const TetVerts& tv : {TetVerts{0, 1, 3, 4}, TetVerts{1, 2, 3, 4}, TetVerts{2, 0, 3, 4}}) {
+    TetVerts positive = tv;
+    if (signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])) < 0)
+      std::swap(positive[0], positive[1]);
+    folded += soundQualityInMesh(mesh, positive) < 0.0;
+  }
+  EXPECT_GT(folded, 0);
 }
 
 TEST(Flips, ThreeTwoFlipOfThreeNeedlesRaisesTheWorstQualityAndKeepsTheVolume) {

@@ -75,7 +75,7 @@ class TetPlanes {
   // The last segment found to meet the tet, and how far (less a margin for rounding) the point
   // in the middle of its part inside lies within every plane: a segment whose ends are each
   // closer than that to its ends meets the tet too, while the corners and the tolerance stay.
-  Vec3 met_p_, met_q_;
+  Vec3 met_p_ = Vec3::Zero(), met_q_ = Vec3::Zero();
   double met_depth2_ = -1.0, met_tolerance_ = 0.0;  // the depth squared (-1: none kept)
 };
 

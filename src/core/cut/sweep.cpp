@@ -143,8 +143,8 @@ bool TetPlanes::meets(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b
     }
     valid_ = true;
     met_depth2_ = -1.0;
-  } else if (tolerance == met_tolerance_ && (p - met_p_).squaredNorm() < met_depth2_ &&
-             (q - met_q_).squaredNorm() < met_depth2_) {
+  } else if (met_depth2_ > 0.0 && tolerance == met_tolerance_ &&
+             (p - met_p_).squaredNorm() < met_depth2_ && (q - met_q_).squaredNorm() < met_depth2_) {
     // The point at the same parameter moved less than its depth: inside still (most ticks).
     return true;
   }

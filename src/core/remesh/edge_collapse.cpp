@@ -164,14 +164,22 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
   // test and the volume sum after it (NaN: the tet vanishes).
   // On the stack for any usual star (a vertex is in ~24 tets; a thread_local buffer cost a TLS
   // lookup a call in this shared library).
+  // The moved tets themselves are kept beside them for the tests after.
   constexpr std::size_t kOnStack = 128;
   std::array<double, kOnStack> on_stack;
+  std::array<TetVerts, kOnStack> moved_on_stack;
   std::vector<double> spilled;
-  if (star.size() > kOnStack) spilled.resize(star.size());
+  std::vector<TetVerts> moved_spilled;
+  if (star.size() > kOnStack) {
+    spilled.resize(star.size());
+    moved_spilled.resize(star.size());
+  }
   double* const rest_volume = star.size() > kOnStack ? spilled.data() : on_stack.data();
+  TetVerts* const moved_tv = star.size() > kOnStack ? moved_spilled.data() : moved_on_stack.data();
   std::fill_n(rest_volume, star.size(), std::numeric_limits<double>::quiet_NaN());
   for (std::size_t i = 0; i < star.size(); ++i) {
     if (!moved(star[i], &tv)) continue;
+    moved_tv[i] = tv;
     rest_volume[i] =
         signedVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]));
     if (!(rest_volume[i] > 0.0)) {
@@ -180,16 +188,25 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
       return check;
     }
   }
-  for (std::size_t i = 0; i < star.size(); ++i)
-    if (moved(star[i], &tv) &&
-        !(isSoundWithVolume(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3]),
+  // Where a moved tet's corners are where they rest (no physics), the current test is the rest
+  // one, passed already: made only where they differ.
+  auto atRest = [&](const TetVerts& corners) {
+    for (int v : corners)
+      if (mesh.current(v) != mesh.rest(v)) return false;
+    return true;
+  };
+  for (std::size_t i = 0; i < star.size(); ++i) {
+    if (std::isnan(rest_volume[i])) continue;  // vanishes with the edge
+    const TetVerts& m = moved_tv[i];
+    if (!(isSoundWithVolume(mesh.rest(m[0]), mesh.rest(m[1]), mesh.rest(m[2]), mesh.rest(m[3]),
                             rest_volume[i]) &&
-          isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
-                     mesh.current(tv[3])))) {
+          (atRest(m) || isSoundTet(mesh.current(m[0]), mesh.current(m[1]), mesh.current(m[2]),
+                                   mesh.current(m[3]))))) {
       check.refusal = CollapseRefusal::kInversion;
       check.worst_after = 0.0;  // a flattened tet has Q = 0
       return check;
     }
+  }
   double volume_before = 0.0, volume_after = 0.0;
   for (int t : star) volume_before += mesh.restVolume(t);
   for (std::size_t i = 0; i < star.size(); ++i)
@@ -219,10 +236,11 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
   check.worst_before = 1.0;
   for (int t : star) check.worst_before = std::min(check.worst_before, restQuality(mesh, t));
   check.worst_after = 1.0;
-  for (int t : star) {
-    if (!moved(t, &tv)) continue;
-    check.worst_after = std::min(check.worst_after, tetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]),
-                                                               mesh.rest(tv[2]), mesh.rest(tv[3])));
+  for (std::size_t i = 0; i < star.size(); ++i) {
+    if (std::isnan(rest_volume[i])) continue;
+    const TetVerts& m = moved_tv[i];
+    check.worst_after = std::min(check.worst_after, tetQuality(mesh.rest(m[0]), mesh.rest(m[1]),
+                                                               mesh.rest(m[2]), mesh.rest(m[3])));
     if (check.worst_after < check.worst_before) {
       check.refusal = CollapseRefusal::kQuality;
       return check;
@@ -242,8 +260,13 @@ bool isSoundTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) 
 double soundQualityInMesh(const TetMesh& mesh, const TetVerts& tv) {
   const double q = soundTetQuality(mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]),
                                    mesh.rest(tv[3]), kMinCollapseRelativeVolume);
-  if (q < 0.0 || !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
-                             mesh.current(tv[3])))
+  if (q < 0.0) return -1.0;
+  // soundTetQuality() tests the rest corners as isSoundTet() does (the same sums): where the
+  // current corners are the rest ones (no physics), they passed already.
+  bool at_rest = true;
+  for (int v : tv) at_rest = at_rest && mesh.current(v) == mesh.rest(v);
+  if (!at_rest && !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
+                              mesh.current(tv[3])))
     return -1.0;
   return q;
 }
