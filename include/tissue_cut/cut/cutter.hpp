@@ -386,6 +386,9 @@ class Cutter {
   struct QuietFace {
     double at;
     std::array<int, 3> f;  // sorted
+    // The moves at which a tick's test of it found it clear of the front's path by its distance
+    // from the path's end then (over the turn's scale), plus that: watchedQuiet() leaves it until.
+    mutable double next = 0.0;
     auto key() const { return std::tie(at, f); }
   };
   std::vector<QuietVertex> quiet_verts_;

@@ -1896,18 +1896,24 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     out->edges.erase(std::unique(out->edges.begin(), out->edges.end()), out->edges.end());
   }
   // crossFront()'s two paths this tick, each moved along the blade toward the other end.
+  // A later tick's front path lies within the moves since of this one's end, times front_scale
+  // (the shift along the blade turns with it: by at most 4 moves over its length).
+  const double front_scale = 1.0 + 4.0 * frontShift() / (to.tip - to.base).norm();
   auto crossed = [&](const std::vector<QuietFace>& faces, const Vec3& from_end, const Vec3& to_end,
                      const Vec3& inward) {
     const Vec3 shift = inward.norm() > 0 ? Vec3(frontShift() * inward.normalized()) : Vec3::Zero();
     const Vec3 p = from_end + shift, q = to_end + shift;
     for (const QuietFace& face : faces) {
       if (face.at > reached) break;
+      if (face.next > reached) continue;  // clear of every path until the moves reach `next`
       const auto& f = face.f;
       if (!mesh_->vertexAlive(f[0]) || !mesh_->vertexAlive(f[1]) || !mesh_->vertexAlive(f[2]))
         continue;
       const Triangle tri{mesh_->current(f[0]), mesh_->current(f[1]), mesh_->current(f[2])};
       // crossFront() may take the face the other way round: rounding may differ there.
       if (segmentCrossesTriangle(p, q, tri, 2e-9, &s, &bary)) return true;
+      if (front_scale < HUGE_VAL)  // (not for a blade of no length)
+        face.next = moved + pointTriangleDistance(q, tri[0], tri[1], tri[2]) / front_scale;
     }
     return false;
   };
