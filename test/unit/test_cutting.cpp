@@ -962,8 +962,8 @@ TEST(Cutting, TheNearCachesEdgeSendsNoTickToASweep) {
     const std::vector<BladeSegment> blades = trembling(12, sigma, false);
     TetMesh mesh(block.V, block.T);
     const CutCounts counts = cutAlong(blades, CutterOptions{}, &mesh);
-    // The first tick has no blade before it (it is not swept), and the last, the lift, ends the
-    // stroke: neither counts.
+    // The first tick has no blade before it: it is never swept (nor is the lift after the last,
+    // which is not one of these ticks).
     const long long ticks = static_cast<long long>(blades.size()) - 1;
     const long long swept = ticks - counts.quiet_ticks - counts.feature_ticks;
     std::printf("tremble %g m: %lld of %lld ticks swept, %lld quiet, %lld acted on features "

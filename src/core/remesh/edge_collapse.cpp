@@ -123,6 +123,14 @@ bool frontKept(const TetMesh& mesh, int removed, int survivor, double shape_tole
   return distanceToSegment(p, s, o) <= tolerance * std::max((s - o).norm(), length_floor);
 }
 
+// Whether the tet's corners are where they rest (always, without physics): its current
+// positions then answer every question as its rest ones do.
+bool atRest(const TetMesh& mesh, const TetVerts& tv) {
+  for (int v : tv)
+    if (mesh.current(v) != mesh.rest(v)) return false;
+  return true;
+}
+
 // isSoundTet of the tet whose signed volume (signedVolume()) is `vol`.
 bool isSoundWithVolume(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, double vol) {
   const Vec3* p[4] = {&p0, &p1, &p2, &p3};
@@ -190,18 +198,13 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
   }
   // Where a moved tet's corners are where they rest (no physics), the current test is the rest
   // one, passed already: made only where they differ.
-  auto atRest = [&](const TetVerts& corners) {
-    for (int v : corners)
-      if (mesh.current(v) != mesh.rest(v)) return false;
-    return true;
-  };
   for (std::size_t i = 0; i < star.size(); ++i) {
     if (std::isnan(rest_volume[i])) continue;  // vanishes with the edge
     const TetVerts& m = moved_tv[i];
     if (!(isSoundWithVolume(mesh.rest(m[0]), mesh.rest(m[1]), mesh.rest(m[2]), mesh.rest(m[3]),
                             rest_volume[i]) &&
-          (atRest(m) || isSoundTet(mesh.current(m[0]), mesh.current(m[1]), mesh.current(m[2]),
-                                   mesh.current(m[3]))))) {
+          (atRest(mesh, m) || isSoundTet(mesh.current(m[0]), mesh.current(m[1]),
+                                         mesh.current(m[2]), mesh.current(m[3]))))) {
       check.refusal = CollapseRefusal::kInversion;
       check.worst_after = 0.0;  // a flattened tet has Q = 0
       return check;
@@ -263,10 +266,8 @@ double soundQualityInMesh(const TetMesh& mesh, const TetVerts& tv) {
   if (q < 0.0) return -1.0;
   // soundTetQuality() tests the rest corners as isSoundTet() does (the same sums): where the
   // current corners are the rest ones (no physics), they passed already.
-  bool at_rest = true;
-  for (int v : tv) at_rest = at_rest && mesh.current(v) == mesh.rest(v);
-  if (!at_rest && !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]), mesh.current(tv[2]),
-                              mesh.current(tv[3])))
+  if (!atRest(mesh, tv) && !isSoundTet(mesh.current(tv[0]), mesh.current(tv[1]),
+                                       mesh.current(tv[2]), mesh.current(tv[3])))
     return -1.0;
   return q;
 }
