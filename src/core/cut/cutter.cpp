@@ -1721,13 +1721,22 @@ void Cutter::newQuietBatch() {
 
 void Cutter::sortQuiet() {
   quiet_unsorted_ = false;
+  // A feature met twice with the same key keeps one entry, tested again as soon as either would
+  // be: one of them may have come back with a tet a change made (its `next` not known yet).
   auto tidy = [](auto* list) {
     using Item = typename std::decay_t<decltype(*list)>::value_type;
     std::sort(list->begin(), list->end(),
               [](const Item& x, const Item& y) { return x.key() < y.key(); });
-    list->erase(std::unique(list->begin(), list->end(),
-                            [](const Item& x, const Item& y) { return x.key() == y.key(); }),
-                list->end());
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      if (kept > 0 && (*list)[kept - 1].key() == (*list)[i].key()) {
+        (*list)[kept - 1].next = std::min((*list)[kept - 1].next, (*list)[i].next);
+        continue;
+      }
+      if (kept != i) (*list)[kept] = (*list)[i];
+      ++kept;
+    }
+    list->resize(kept);
   };
   tidy(&quiet_verts_);
   tidy(&quiet_edges_);
