@@ -214,15 +214,17 @@ class Cutter {
   /// (`touched` is the caller's scratch: sorted here and grown by the waiting vertices tried.)
   void separate(std::vector<int>* touched, bool all_waiting, ChangeRecord* change);
   /// The groups of v's star: its tets joined through faces that are not marked, in the order of
-  /// their first tets' places in the star, each in star order. Returns how many; group k is
-  /// group_tets_[group_start_[k] .. group_start_[k + 1]) (until the next call).
+  /// their first tets' places in the star, each in star order. Returns how many; where there are
+  /// two or more (v splits), group k is group_tets_[group_start_[k] .. group_start_[k + 1])
+  /// (until the next call). One group (most calls) is counted, not listed: no caller reads it.
   int groupsAround(int v) const;
   /// Of `verts`, those whose split must wait (sorted): splitting all the others, as separate()
   /// does, keeps the boundary a 2-manifold. Keeps each vertex's groups for groupsKept(). (The
   /// answer is kept until the next call.)
   const std::vector<int>& heldSplits(const std::vector<int>& verts);
   /// groupsAround(v) for verts[place] of the last heldSplits(verts): its kept answer while no split
-  /// since has changed a tet of v's star or a mark on one (see keptStale()), else afresh.
+  /// since has changed a tet of v's star or a mark on one (see keptStale()), else afresh. (Groups
+  /// are kept, and listed again, only for a vertex that splits.)
   int groupsKept(int v, int place);
   /// The groups kept for these tets' vertices no longer hold: a split renames the tets (new
   /// slots, v in place of its copy) and moves or opens the marks on their faces.
@@ -506,10 +508,11 @@ class Cutter {
   };
   std::vector<FanEdge> held_fan_;
   // groupsAround()'s answers for heldSplits()' vertices, kept for separate(): for verts[i],
-  // g = kept_groups_[i] is its first group's place in kept_start_ (-1: none kept) and
-  // kept_count_[i] how many; group k of it is kept_tets_[kept_start_[g + k] ..
-  // kept_start_[g + k + 1]). A vertex slot's kept_stale_ is kept_call_ once a split has changed
-  // its star or marks since.
+  // g = kept_groups_[i] is its first group's place in kept_start_ (-1: none kept; kCountKept:
+  // one group or none, counted only) and kept_count_[i] how many; group k of it is
+  // kept_tets_[kept_start_[g + k] .. kept_start_[g + k + 1]). A vertex slot's kept_stale_ is
+  // kept_call_ once a split has changed its star or marks since.
+  static constexpr int kCountKept = -2;
   std::vector<int> kept_groups_, kept_count_, kept_start_, kept_tets_;
   std::vector<unsigned> kept_stale_;
   unsigned kept_call_ = 0;

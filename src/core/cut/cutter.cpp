@@ -999,6 +999,10 @@ int Cutter::groupsAround(int v) const {
   }
   // The groups in the order of their roots' places in the star, each in star order: counted,
   // then filled.
+  // One group (or none): nothing splits, and no caller reads the lists.
+  int roots = 0;
+  for (int r = 0; r < n && roots < 2; ++r) roots += parent[r] == r;
+  if (roots < 2) return roots;
   std::vector<int>& group_of = star_group_;
   group_of.assign(n, -1);
   group_start_.assign(1, 0);
@@ -1046,13 +1050,16 @@ const std::vector<int>& Cutter::heldSplits(const std::vector<int>& verts) {
     const int v = verts[place];
     if (!mesh_->vertexAlive(v)) continue;
     const int groups = groupsAround(v);
-    kept_groups_[place] = static_cast<int>(kept_start_.size());
     kept_count_[place] = groups;
+    if (groups < 2) {
+      kept_groups_[place] = kCountKept;
+      continue;
+    }
+    kept_groups_[place] = static_cast<int>(kept_start_.size());
     for (int k = 0; k <= groups; ++k)
       kept_start_.push_back(static_cast<int>(kept_tets_.size()) + group_start_[k]);
     kept_tets_.insert(kept_tets_.end(), group_tets_.begin(),
                       group_tets_.begin() + group_start_[groups]);
-    if (groups < 2) continue;
     splitting.push_back(v);
     split_state_[v] = kSplits;
     for (int k = 0; k < groups; ++k)
@@ -1192,10 +1199,11 @@ const std::vector<int>& Cutter::heldSplits(const std::vector<int>& verts) {
 
 int Cutter::groupsKept(int v, int place) {
   const int first = place < static_cast<int>(kept_groups_.size()) ? kept_groups_[place] : -1;
-  if (!options_.keep_groups || first < 0 || kept_stale_[v] == kept_call_) return groupsAround(v);
+  if (!options_.keep_groups || first == -1 || kept_stale_[v] == kept_call_) return groupsAround(v);
   ++counts_.groups_kept;
   // What groupsAround(v) would answer now: it depends on v's star and the marks on its faces only.
   const int groups = kept_count_[place];
+  if (first == kCountKept) return groups;  // one group (or none): not listed
   const int base = kept_start_[first];
   group_start_.resize(groups + 1);
   for (int k = 0; k <= groups; ++k) group_start_[k] = kept_start_[first + k] - base;
