@@ -496,7 +496,13 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
       new_faces.emplace_back(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]),
                              static_cast<int>(4 * place) + f);
   }
-  std::sort(new_faces.begin(), new_faces.end());
+  // By face, then place (all distinct: any sort gives this order), compared field by field.
+  std::sort(new_faces.begin(), new_faces.end(),
+            [](const std::pair<FaceKey, int>& x, const std::pair<FaceKey, int>& y) {
+              for (int k = 0; k < 3; ++k)
+                if (x.first[k] != y.first[k]) return x.first[k] < y.first[k];
+              return x.second < y.second;
+            });
   // Each face once: how many tets would share it, and what each new tet will find across it
   // (linkTet()'s search, done here once: the tet the count finds kept, or the other new one).
   face_across_.assign(new_faces.size(), -1);

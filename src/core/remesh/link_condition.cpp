@@ -17,10 +17,15 @@ constexpr int kOmega = -1;
 using Edge = std::array<int, 2>;
 using Triangle = std::array<int, 3>;
 
+// Sorted (in std::array's order, compared field by field) and each once.
 template <typename T>
 void makeSet(std::vector<T>* v) {
-  std::sort(v->begin(), v->end());
-  v->erase(std::unique(v->begin(), v->end()), v->end());
+  std::sort(v->begin(), v->end(), [](const T& x, const T& y) {
+    for (std::size_t k = 0; k < x.size(); ++k)
+      if (x[k] != y[k]) return x[k] < y[k];
+    return false;
+  });
+  v->erase(std::unique(v->begin(), v->end(), sameVertices<std::tuple_size<T>::value>), v->end());
 }
 
 // The size of the intersection of two sorted sets.
