@@ -254,6 +254,10 @@ class Cutter {
   void gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out);
   /// Makes near_cache_ hold the grid's candidates around [lo, hi] (anew: even where it does).
   void cacheNear(const Vec3& lo, const Vec3& hi, bool anew = false);
+  /// Whether near_cache_ holds the grid's candidates around [lo, hi] (cacheNear() keeps it).
+  bool cacheHolds(const Vec3& lo, const Vec3& hi) const;
+  /// How far the blade `at`'s box lies inside near_cache_'s on its nearest side.
+  double cacheMargin(const BladeSegment& at) const;
   /// Before the quiet features are taken around the blade `at`: where the near cache's edge
   /// would cut the quiet reach short, the cache and the gaps are taken anew around it.
   void roomAround(const BladeSegment& at);

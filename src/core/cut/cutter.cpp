@@ -296,8 +296,7 @@ void Cutter::keepClose(std::size_t place, bool inserted) {
 void Cutter::cacheNear(const Vec3& lo, const Vec3& hi, bool anew) {
   // The blade moves a little each tick: the grid's candidates around a box larger by half a mean
   // edge serve the ticks while it stays inside.
-  if (anew || !near_cache_valid_ || (lo.array() < near_cache_lo_.array()).any() ||
-      (hi.array() > near_cache_hi_.array()).any()) {
+  if (anew || !cacheHolds(lo, hi)) {
     near_cache_lo_ = lo.array() - 0.5 * mean_edge_;
     near_cache_hi_ = hi.array() + 0.5 * mean_edge_;
     const bool had = near_cache_valid_;
@@ -325,13 +324,20 @@ void Cutter::roomAround(const BladeSegment& at) {
   // swept until one sweep's box leaves the cache and takes it anew. Taken anew here first, the
   // reach is whole. (The cache and the gaps only filter: what the sweeps find is the same.)
   if (!closeKept()) return;
-  const Vec3 lo = at.base.cwiseMin(at.tip), hi = at.base.cwiseMax(at.tip);
-  const double margin =
-      std::min((lo - near_cache_lo_).minCoeff(), (near_cache_hi_ - hi).minCoeff());
-  if (margin - snap_distance_ >= options_.quiet_reach * mean_edge_) return;
+  if (cacheMargin(at) - snap_distance_ >= options_.quiet_reach * mean_edge_) return;
   const auto [box_lo, box_hi] = sweepBox(at, at, snap_distance_);
   cacheNear(box_lo, box_hi, true);
   retakeGaps(at);
+}
+
+bool Cutter::cacheHolds(const Vec3& lo, const Vec3& hi) const {
+  return near_cache_valid_ && !(lo.array() < near_cache_lo_.array()).any() &&
+         !(hi.array() > near_cache_hi_.array()).any();
+}
+
+double Cutter::cacheMargin(const BladeSegment& at) const {
+  const Vec3 lo = at.base.cwiseMin(at.tip), hi = at.base.cwiseMax(at.tip);
+  return std::min((lo - near_cache_lo_).minCoeff(), (near_cache_hi_ - hi).minCoeff());
 }
 
 void Cutter::gridQuery(const Vec3& lo, const Vec3& hi, std::vector<int>* out) {
@@ -997,12 +1003,12 @@ int Cutter::groupsAround(int v) const {
       parent[find(i)] = find(star_place_[u]);
     }
   }
-  // The groups in the order of their roots' places in the star, each in star order: counted,
-  // then filled.
   // One group (or none): nothing splits, and no caller reads the lists.
   int roots = 0;
   for (int r = 0; r < n && roots < 2; ++r) roots += parent[r] == r;
   if (roots < 2) return roots;
+  // The groups in the order of their roots' places in the star, each in star order: counted,
+  // then filled.
   std::vector<int>& group_of = star_group_;
   group_of.assign(n, -1);
   group_start_.assign(1, 0);
@@ -1485,9 +1491,7 @@ int Cutter::sweepLooksAt(int v, const BladeSegment& from, const BladeSegment& to
   // (Named values, not structured bindings: the lambdas below capture them.)
   const std::pair<Vec3, Vec3> box = sweepBox(from, to, snap_distance_);
   const Vec3 &lo = box.first, &hi = box.second;
-  if (!near_cache_valid_ || (lo.array() < near_cache_lo_.array()).any() ||
-      (hi.array() > near_cache_hi_.array()).any())
-    return -1;  // cacheNear() would take the cache anew
+  if (!cacheHolds(lo, hi)) return -1;  // cacheNear() would take the cache anew
   const double step = std::max((to.base - from.base).norm(), (to.tip - from.tip).norm());
   if (gapsRetaken(from, step)) return -1;
   const std::pair<double, double> reaches =
@@ -1776,12 +1780,9 @@ double Cutter::quietReach(const BladeSegment& at) {
   if (!(length > 2.0 * frontShift())) return 0.0;
   const double wide = std::max(snap_distance_, wound_snap_distance_);
   const double moves = gap_blade_ + gap_tissue_;
-  const Vec3 lo = at.base.cwiseMin(at.tip), hi = at.base.cwiseMax(at.tip);
-  const double margin =
-      std::min((lo - near_cache_lo_).minCoeff(), (near_cache_hi_ - hi).minCoeff());
   const double slack = 1e-3 * mean_edge_ + 1e-6 * length;
   quiet_slack_ = slack;
-  quiet_reach_ = std::min({options_.quiet_reach * mean_edge_, margin - snap_distance_,
+  quiet_reach_ = std::min({options_.quiet_reach * mean_edge_, cacheMargin(at) - snap_distance_,
                            gap_far_ - moves - wide}) -
                  2.0 * slack;
   if (!(quiet_reach_ > 0.0)) return 0.0;
