@@ -68,8 +68,11 @@ void TetGrid::insert(const TetMesh& mesh, int t) {
   const auto [i1, j1, k1] = f.last;
   growSlots(&filed_, static_cast<std::size_t>(t) + 1);
   growSlots(&boxes_, static_cast<std::size_t>(t) + 1);
-  filed_[t] = f;
   boxes_[t] = box;
+  // A reused slot whose last entries span the same cells (a split's pieces, a collapse's or a
+  // move's star take back the slots of the tets they replace, mostly there): those serve.
+  if (filed_[t].first == f.first && filed_[t].last == f.last) return;
+  filed_[t] = f;
   for (int k = k0; k <= k1; ++k)
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) {
