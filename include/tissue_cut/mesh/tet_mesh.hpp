@@ -130,9 +130,9 @@ struct ChangeRecord {
   /// and removed again within the two vanishes from both lists.
   void append(const ChangeRecord& later);
   /// The same, scanning the lists while |later.removed_tets| times |added_tets| (and |later's
-  /// added| times |later's removed|) stays within scan_limit, and above it noting each slot's
-  /// place (or origin) first in a hash table: append() takes 256; both ways give the same
-  /// record (a test composes with 0, 256 and no limit).
+  /// added| times |later's removed|) stays within scan_limit, and above it noting later's
+  /// removed slots (or their origins) first in a hash table: append() takes 256; both ways give
+  /// the same record (a test composes with 0, 256 and no limit).
   void append(const ChangeRecord& later, std::size_t scan_limit);
 };
 

@@ -1,6 +1,7 @@
 #include "tissue_cut/mesh/tet_mesh.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <map>
 #include <sstream>
@@ -109,17 +110,30 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
   // the consumers, and a tet continuing one of those continues what that one continued. Most
   // records composed are small next to a tick's (one collapse, flip or move appended to what the
   // tick did so far): short lists are scanned; for longer ones (a tick's record of hundreds of
-  // tets against a collapse's dozen removed, most of them not added here) each slot's place is
-  // noted first in a table (appendScratch()).
+  // tets against a collapse's dozen removed, most of them not added here) later's slots are
+  // noted first in a table (appendScratch()) and found by one look along this record's list.
   AppendScratch& scratch = appendScratch();
   StampedTable<long long>* notes = nullptr;  // begun when first needed
   const std::size_t n_added = added_tets.size();
   const bool scan_added = later.removed_tets.size() * n_added <= scan_limit;
   if (!scan_added) {
+    // later's removed slots noted (-1: not added here), each given its last place in added_tets
+    // by one look along the list from its end. Most of the list is none of them: a filter of 512
+    // bits answers that before the table is asked.
     notes = &scratch.notes;
-    notes->begin(n_added);
-    for (std::size_t i = 0; i < n_added; ++i)
-      notes->put(slotKey(added_tets[i]), static_cast<long long>(i));  // the last, as scanned
+    notes->begin(later.removed_tets.size());
+    std::array<std::uint64_t, 8> filter{};
+    auto bit = [](int t) { return (static_cast<std::uint32_t>(t) * 0x9E3779B1u) >> 23; };
+    for (int t : later.removed_tets) {
+      notes->put(slotKey(t), -1);
+      filter[bit(t) >> 6] |= std::uint64_t{1} << (bit(t) & 63);
+    }
+    for (std::size_t i = n_added; i-- > 0;) {
+      const int t = added_tets[i];
+      if (!((filter[bit(t) >> 6] >> (bit(t) & 63)) & 1)) continue;
+      if (notes->contains(slotKey(t)) && notes->at(slotKey(t)) < 0)
+        notes->put(slotKey(t), static_cast<long long>(i));  // the last, as scanned
+    }
   }
   // later's removed slots and what each continued, in later.removed_tets' order
   std::vector<std::pair<int, int>>& origin = scratch.origin;
@@ -134,7 +148,7 @@ void ChangeRecord::append(const ChangeRecord& later, std::size_t scan_limit) {
           i = k;
           break;
         }
-    } else if (notes->contains(slotKey(t))) {
+    } else if (notes->at(slotKey(t)) >= 0) {
       i = static_cast<std::size_t>(notes->at(slotKey(t)));
     }
     if (i < n_added && (cancelled.empty() || !cancelled[i])) {
