@@ -989,6 +989,7 @@ int Cutter::groupsAround(int v) const {
   // tets is looked at once, from the tet earlier in the star (from the other side it joined what
   // was joined already: the same groups, the same roots, half the marked-face lookups).
   const bool any_marked = markedAt(v);
+  int components = n;
   for (int i = 0; i < n; ++i) {
     const TetVerts& tv = mesh_->tet(star[i]);
     for (int f = 0; f < 4; ++f) {
@@ -1000,7 +1001,12 @@ int Cutter::groupsAround(int v) const {
       if (any_marked && markedAt(a) && markedAt(b) && markedAt(c) &&
           marked_.count(sortedFace(a, b, c)))
         continue;
-      parent[find(i)] = find(star_place_[u]);
+      const int from = find(i), to = find(star_place_[u]);
+      if (from == to) continue;
+      parent[from] = to;
+      // One group: nothing splits, and no caller reads the lists (most stars end here, before
+      // their last faces are looked at).
+      if (--components == 1) return 1;
     }
   }
   // One group (or none): nothing splits, and no caller reads the lists.
