@@ -1666,9 +1666,13 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   const double wide = std::max(snap_distance_, wound_snap_distance_);
   const double length = (at.tip - at.base).norm();
   const double near = quiet_reach_ + quiet_slack_;
-  // The widest band of its vertices: the wound's only where one is on a wound.
-  const double band = anyOnWound(tv) ? wide : snap_distance_;
-  if (!(lower <= near + band)) return;
+  // Within the widest band of its vertices, `near` further: the wound's band only where one is
+  // on a wound (looked up only where the two bands answer differently).
+  auto withinBand = [&](double gap) {
+    if (gap <= near + snap_distance_) return true;
+    return gap <= near + wide && anyOnWound(tv);
+  };
+  if (!withinBand(lower)) return;
   const std::array<Vec3, 4> x{mesh_->current(tv[0]), mesh_->current(tv[1]), mesh_->current(tv[2]),
                               mesh_->current(tv[3])};
   // A ball around the tet: its distance from the blade is at least `ball`.
@@ -1677,7 +1681,7 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   for (const Vec3& p : x) radius2 = std::max(radius2, (p - centre).squaredNorm());
   const double radius = std::sqrt(radius2);
   const double ball = distanceToSegment(centre, at.base, at.tip) - radius;
-  if (!(ball <= near + band)) return;
+  if (!withinBand(ball)) return;
   // Each vertex once a batch (it is in ~20 of these tets): what it gives does not depend on
   // the tet. Its distance from the blade is kept for the edges below.
   std::array<double, 4> dist;
