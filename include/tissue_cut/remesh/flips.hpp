@@ -9,6 +9,7 @@
 // raises the worst quality Q of the tets it replaces, so flips cannot cycle.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <vector>
 
@@ -37,6 +38,14 @@ bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* o
 /// Largest ring removeEdge works on.
 constexpr int kMaxEdgeRing = 10;
 
+/// An edge's tets as TetMesh::edgeTets() lists them: `count` of them, the first kMaxEdgeRing
+/// (at most) in `tets`. Found once, they serve both the edge's removal and its 2-2 flip.
+struct EdgeTets {
+  std::array<int, kMaxEdgeRing> tets;
+  int count = 0;
+};
+EdgeTets edgeTetsOf(const TetMesh& mesh, int a, int b);
+
 /// Edge removal (the 3-2 flip's generalisation, Shewchuk 2002; n = 3 is the 3-2 flip): the n tets around an interior
 /// edge ab (3 <= n <= kMaxEdgeRing) are replaced by 2n - 4 tets joining each triangle of a
 /// triangulation of ab's ring polygon to a and to b. The triangulation maximising the worst rest
@@ -46,6 +55,9 @@ constexpr int kMaxEdgeRing = 10;
 /// `may_join(u, v)` (null: always) must allow every chord used.
 bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out,
                 const std::function<bool(int, int)>& may_join = nullptr);
+/// The same with the edge's tets found already (edgeTetsOf(mesh, a, b)).
+bool removeEdge(const TetMesh& mesh, int a, int b, const EdgeTets& ring, double min_gain,
+                FlipCandidate* out, const std::function<bool(int, int)>& may_join = nullptr);
 
 /// Inputs: mesh; a, b the ends of a boundary edge held by exactly two tets, abcx and abdx (abc and
 /// abd its boundary faces, abx the face between the tets); shape_tolerance and length_floor as for
@@ -57,6 +69,9 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
 /// rises by at least min_gain; else returns false. volume_change is the rest volume the flip adds.
 bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double min_gain,
             FlipCandidate* out, double length_floor = 0.0);
+/// The same with the edge's tets found already (edgeTetsOf(mesh, a, b)).
+bool flip22(const TetMesh& mesh, int a, int b, const EdgeTets& pair, double shape_tolerance,
+            double min_gain, FlipCandidate* out, double length_floor = 0.0);
 
 /// Does the flip: TetMesh::replaceTets(removed, added) with every added tet new (added_from -1:
 /// the element is re-made, its springs and masses are rebuilt from it). Returns the new tet ids.

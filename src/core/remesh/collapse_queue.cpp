@@ -210,8 +210,10 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
   };
   for (int f = 0; f < 4; ++f) consider(flip23(*mesh_, t, f, kMinFlipGain, &candidate, may_join_));
   for (const auto& edge : kTetEdge) {
-    consider(removeEdge(*mesh_, tv[edge[0]], tv[edge[1]], kMinFlipGain, &candidate, may_join_));
-    consider(flip22(*mesh_, tv[edge[0]], tv[edge[1]], shape_tolerance_, kMinFlipGain, &candidate,
+    const int a = tv[edge[0]], b = tv[edge[1]];
+    const EdgeTets ring = edgeTetsOf(*mesh_, a, b);  // both flips' tets, found once
+    consider(removeEdge(*mesh_, a, b, ring, kMinFlipGain, &candidate, may_join_));
+    consider(flip22(*mesh_, a, b, ring, shape_tolerance_, kMinFlipGain, &candidate,
                     length_floor_));
   }
   if (!found) return false;

@@ -6,7 +6,6 @@
 #include "tissue_cut/mesh/inline_vector.hpp"
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
-#include "tissue_cut/remesh/link_condition.hpp"
 
 namespace tissue_cut {
 
@@ -59,13 +58,31 @@ bool flip23(const TetMesh& mesh, int t, int f, double min_gain, FlipCandidate* o
   return true;
 }
 
+EdgeTets edgeTetsOf(const TetMesh& mesh, int a, int b) {
+  EdgeTets e;
+  e.count = mesh.edgeTets(a, b, e.tets.data(), kMaxEdgeRing);
+  return e;
+}
+
 bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out,
                 const std::function<bool(int, int)>& may_join) {
+  return removeEdge(mesh, a, b, edgeTetsOf(mesh, a, b), min_gain, out, may_join);
+}
+
+bool removeEdge(const TetMesh& mesh, int a, int b, const EdgeTets& edge, double min_gain,
+                FlipCandidate* out, const std::function<bool(int, int)>& may_join) {
   // The edge's tets, at most kMaxEdgeRing of them (a longer ring is never flipped). The queue asks
   // this of every edge of every tet it works: nothing here allocates until a flip is found.
-  std::array<int, kMaxEdgeRing> ring_tets;
-  const int n = mesh.edgeTets(a, b, ring_tets.data(), kMaxEdgeRing);
-  if (n < 3 || n > kMaxEdgeRing || isBoundaryEdge(mesh, a, b)) return false;
+  const std::array<int, kMaxEdgeRing>& ring_tets = edge.tets;
+  const int n = edge.count;
+  if (n < 3 || n > kMaxEdgeRing) return false;
+  // An edge on the boundary: a face through it, in one of its tets, has no tet across.
+  for (int i = 0; i < n; ++i) {
+    const TetVerts& tv = mesh.tet(ring_tets[i]);
+    const int ia = localIndex(tv, a), ib = localIndex(tv, b);
+    for (int f = 0; f < 4; ++f)
+      if (f != ia && f != ib && mesh.neighbor(ring_tets[i], f) < 0) return false;
+  }
   // The ring: around an interior edge every tet shares its two faces through ab with the next
   // one, so the tets' other two vertices chain into one cycle r0 ... r(n-1).
   std::array<std::array<int, 2>, kMaxEdgeRing> pairs;
@@ -180,8 +197,13 @@ bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidat
 
 bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double min_gain,
             FlipCandidate* out, double length_floor) {
-  std::array<int, 2> pair_tets;  // the edge's tets: exactly two
-  if (mesh.edgeTets(a, b, pair_tets.data(), 2) != 2) return false;
+  return flip22(mesh, a, b, edgeTetsOf(mesh, a, b), shape_tolerance, min_gain, out, length_floor);
+}
+
+bool flip22(const TetMesh& mesh, int a, int b, const EdgeTets& edge, double shape_tolerance,
+            double min_gain, FlipCandidate* out, double length_floor) {
+  if (edge.count != 2) return false;  // the edge's tets: exactly two
+  const std::array<int, 2> pair_tets{edge.tets[0], edge.tets[1]};
   // The apex x both tets share across their common face abx, and each tet's own vertex c, d.
   const TetVerts &t0 = mesh.tet(pair_tets[0]), &t1 = mesh.tet(pair_tets[1]);
   int x = -1, c = -1, d = -1;
