@@ -188,14 +188,17 @@ bool CollapseQueue::collapseBest(const TetVerts& tv, const std::function<bool(in
 bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
                              const std::function<bool(int)>& created_by_cut, ChangeRecord* change) {
   const TetVerts tv = mesh_->tet(t);
-  auto allowed = [&](const FlipCandidate& c) {
-    for (int r : c.removed) {
+  auto allowedTets = [&](const int* tets, int n) {
+    for (int i = 0; i < n; ++i) {
       // Only the cut region is re-made: a flip's tets count as made by the cut.
-      if (!created_by_cut(r)) return false;
-      for (int v : mesh_->tet(r))
+      if (!created_by_cut(tets[i])) return false;
+      for (int v : mesh_->tet(tets[i]))
         if (busy(v)) return false;
     }
     return true;
+  };
+  auto allowed = [&](const FlipCandidate& c) {
+    return allowedTets(c.removed.data(), static_cast<int>(c.removed.size()));
   };
   FlipCandidate &best = flip_best_, &candidate = flip_candidate_;
   bool found = false;
@@ -212,6 +215,8 @@ bool CollapseQueue::flipBest(int t, const std::function<bool(int)>& busy,
   for (const auto& edge : kTetEdge) {
     const int a = tv[edge[0]], b = tv[edge[1]];
     const EdgeTets ring = edgeTetsOf(*mesh_, a, b);  // both flips' tets, found once
+    // Both would remove exactly these tets: not looked at where those may not go.
+    if (ring.count > kMaxEdgeRing || !allowedTets(ring.tets.data(), ring.count)) continue;
     consider(removeEdge(*mesh_, a, b, ring, kMinFlipGain, &candidate, may_join_));
     consider(flip22(*mesh_, a, b, ring, shape_tolerance_, kMinFlipGain, &candidate,
                     length_floor_));
