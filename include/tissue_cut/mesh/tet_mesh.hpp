@@ -286,6 +286,7 @@ class TetMesh {
   unsigned vertex_mark_call_ = 0;
   std::vector<TetVerts> move_tets_;
   std::vector<std::array<int, 4>> move_neighbors_;
+  std::vector<std::array<double, 2>> move_measures_;  // rest quality and volume, for a rename
   int num_vertices_ = 0, num_tets_ = 0, num_boundary_faces_ = 0, reoriented_ = 0;
 };
 

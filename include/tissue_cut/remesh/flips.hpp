@@ -46,12 +46,13 @@ struct EdgeTets {
 };
 EdgeTets edgeTetsOf(const TetMesh& mesh, int a, int b);
 
-/// Edge removal (the 3-2 flip's generalisation, Shewchuk 2002; n = 3 is the 3-2 flip): the n tets around an interior
-/// edge ab (3 <= n <= kMaxEdgeRing) are replaced by 2n - 4 tets joining each triangle of a
-/// triangulation of ab's ring polygon to a and to b. The triangulation maximising the worst rest
-/// Q is found by dynamic programming over sub-polygons; chords that are edges already and
-/// triangles that are faces already are not used. Output (returns true) when every new tet is
-/// sound in rest and current positions and the worst rest Q rises by at least min_gain.
+/// Edge removal (the 3-2 flip's generalisation, Shewchuk 2002; n = 3 is the 3-2 flip): the n
+/// tets around an interior edge ab (3 <= n <= kMaxEdgeRing) are replaced by 2n - 4 tets joining
+/// each triangle of a triangulation of ab's ring polygon to a and to b. The triangulation
+/// maximising the worst rest Q is found by dynamic programming over sub-polygons; chords that are
+/// edges already and triangles that are faces already are not used. Output (returns true) when
+/// every new tet is sound in rest and current positions and the worst rest Q rises by at least
+/// min_gain.
 /// `may_join(u, v)` (null: always) must allow every chord used.
 bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out,
                 const std::function<bool(int, int)>& may_join = nullptr);

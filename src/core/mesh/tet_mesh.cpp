@@ -716,10 +716,24 @@ void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecor
     }
   }
   if (copy != v) note(copy);
+  // A moved v moves its star (moveVertex): measured anew. A copy where v is (a rename at the
+  // same place) leaves each tet's corners where they were, in the same order: its measures are
+  // the ones it had, and go with it.
+  const bool same_place = copy != v && rest_[copy] == rest_[v];
+  if (same_place) {
+    move_measures_.resize(n);
+    for (int i = 0; i < n; ++i) move_measures_[i] = {rest_quality_[star[i]], rest_volume_[star[i]]};
+  }
   for (int i = 0; i < n; ++i) {
-    tets_[star[n - 1 - i]] = move_tets_[i];
-    measureTet(star[n - 1 - i]);  // a moved v moves its star (moveVertex)
-    neighbors_[star[n - 1 - i]] = move_neighbors_[i];
+    const int slot = star[n - 1 - i];
+    tets_[slot] = move_tets_[i];
+    if (same_place) {
+      rest_quality_[slot] = move_measures_[i][0];
+      rest_volume_[slot] = move_measures_[i][1];
+    } else {
+      measureTet(slot);
+    }
+    neighbors_[slot] = move_neighbors_[i];
   }
   // Each vertex of the star: its other tets in order, then the star's slots in the order taken.
   for (int w : verts) {
