@@ -118,7 +118,12 @@ class Cutter {
   }
   /// True for vertices a remesher must leave alone: next to a tet still being cut, on a cut face
   /// not opened yet, or waiting to be split.
-  bool isBusy(int v) const;
+  /// (Its kept answer inline: the collapse queue asks it tens of thousands of times a second.)
+  bool isBusy(int v) const {
+    const std::size_t slot = static_cast<std::size_t>(v);
+    const bool kept = slot < busy_known_.size() && busy_known_[slot] == busy_epoch_ + 1;
+    return kept ? busy_answer_[slot] != 0 : keepBusy(v);
+  }
   /// isBusy() worked out anew, without the answers it keeps while stateEpoch() stays (for
   /// tests: the two must agree).
   bool isBusyAfresh(int v) const;
@@ -458,6 +463,7 @@ class Cutter {
   // isBusy()'s answers by vertex slot, each for the epoch busy_known_ holds plus one (0: none).
   mutable std::vector<long long> busy_known_;
   mutable std::vector<unsigned char> busy_answer_;
+  bool keepBusy(int v) const;  // isBusyAfresh(v), kept as isBusy()'s answer for this epoch
   void stateChanged() {
     ++epoch_;
     ++busy_epoch_;

@@ -222,11 +222,10 @@ bool Cutter::isBusyAfresh(int v) const {
   return false;
 }
 
-bool Cutter::isBusy(int v) const {
+bool Cutter::keepBusy(int v) const {
   // Asked for each vertex of each tet the collapse queue takes up, most of them several times
   // between two changes of the answers (stateEpoch()): each answer is kept for its epoch.
   const std::size_t slot = static_cast<std::size_t>(v);
-  if (slot < busy_known_.size() && busy_known_[slot] == busy_epoch_ + 1) return busy_answer_[slot];
   const bool busy = isBusyAfresh(v);
   growSlots(&busy_known_, slot + 1, 0LL);
   growSlots(&busy_answer_, slot + 1, static_cast<unsigned char>(0));
