@@ -123,6 +123,26 @@ TEST(TetGrid, ReplacedTetsAreFoundAfterAnUpdate) {
     EXPECT_TRUE(std::binary_search(found.begin(), found.end(), t)) << "new tet " << t;
 }
 
+// A tet replaced by itself takes its own slot back, spanning the same cells: the entries it has
+// there serve, and the grid does not fill with copies of them (each replacement had added the
+// tet's entries again: some ten thousand made the grid ask for a rebuild). Queries stay exact.
+TEST(TetGrid, ATetReplacedInItsOwnCellsAddsNoEntries) {
+  BlockGrid g;
+  TetMesh& mesh = g.mesh;
+  TetGrid& grid = g.grid;
+  const int t = 100;
+  for (int k = 0; k < 40000; ++k) {
+    ChangeRecord change;
+    mesh.replaceTets({t}, {mesh.tet(t)}, &change);
+    ASSERT_EQ(change.added_tets, std::vector<int>{t}) << "replacement " << k;
+    grid.update(mesh, change);
+  }
+  EXPECT_FALSE(grid.cluttered());
+  EXPECT_FALSE(grid.needsRebuild(mesh));
+  std::mt19937 rng(11);
+  expectExactQueries(mesh, grid, &rng);
+}
+
 // What the cutter keeps between ticks: the candidates of a box hold every tet a query of a box
 // inside it returns, after drift below the rebuild limit too; a tet filed later joins them when
 // filedNear says so, and a query filtered from them equals the grid's.

@@ -611,11 +611,11 @@ TEST(TetMesh, KeepsEachTetsRestQualityThroughEveryChange) {
   std::mt19937 rng(5);
   TetMesh mesh = bisectedBlock(&rng);  // replacements into freed and new slots
   expectKeptQuality(mesh, "bisected");
-  int moves = 0, renames = 0, merges = 0;
-  for (int k = 0; k < 60; ++k) {
+  int moves = 0, renames = 0, merges = 0, renames_in_place = 0;
+  for (int k = 0; k < 80; ++k) {
     const auto edges = mesh.edges();
     const auto [v, w] = edges[rng() % edges.size()];
-    switch (k % 3) {
+    switch (k % 4) {
       case 0:  // a smoothing move of v a fifth of the way to w (refused where a tet would flip)
         try {
           mesh.moveVertex(v, {{v, 0.8}, {w, 0.2}}, nullptr);
@@ -636,6 +636,19 @@ TEST(TetMesh, KeepsEachTetsRestQualityThroughEveryChange) {
         expectKeptQuality(mesh, "renaming " + std::to_string(v));
         break;
       }
+      case 3: {  // v's tets handed to a copy where v is (the cutter's copies are): the tets keep
+                 // what they had, in their new slots
+        const int copy = mesh.addVertex({{v, 1.0}}, nullptr);
+        try {
+          mesh.renameVertex(mesh.vertexTets(v), v, copy, nullptr);
+          mesh.removeVertex(v, nullptr);
+          ++renames_in_place;
+        } catch (const std::logic_error&) {
+          mesh.removeVertex(copy, nullptr);
+        }
+        expectKeptQuality(mesh, "renaming in place " + std::to_string(v));
+        break;
+      }
       default:  // a collapse of v onto w
         try {
           mesh.mergeVertices(v, w, nullptr);
@@ -650,5 +663,6 @@ TEST(TetMesh, KeepsEachTetsRestQualityThroughEveryChange) {
   EXPECT_GT(moves, 5);
   EXPECT_GT(renames, 5);
   EXPECT_GT(merges, 5);
+  EXPECT_GT(renames_in_place, 5);
   EXPECT_EQ(mesh.validate(), "");
 }
