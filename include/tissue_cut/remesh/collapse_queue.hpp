@@ -200,6 +200,7 @@ class CollapseQueue {
   mutable std::vector<Triangle> faces_scratch_;
   mutable std::vector<Vec3> points_scratch_;
   mutable std::vector<int> flip_ghost_verts_;  // ghostsKept(flip)'s vertices
+  mutable std::vector<int> ghost_neighbours_;  // ghostsKept(removed, survivor)'s, met so far
   void boundaryFacesAround(int v, int removed, int survivor, const FlipCandidate* flip,
                            std::vector<Triangle>* out) const;
   bool ghostsNear(const std::vector<Vec3>& points, const std::vector<Triangle>& faces) const;

@@ -330,12 +330,16 @@ bool CollapseQueue::ghostsKept(int removed, int survivor) const {
     points.insert(points.end(), kept.begin(), kept.end());
   }
   if (!ghostsNear(points, faces)) return false;
-  // Neighbours whose faces through `removed` move keep their own points near their new faces.
+  // Neighbours whose faces through `removed` move keep their own points near their new faces:
+  // each once, in the order first met (a neighbour is in several of the star's tets).
+  std::vector<int>& met = ghost_neighbours_;
+  met.clear();
   for (int t : mesh_->vertexTets(removed)) {
     for (int u : mesh_->tet(t)) {
       if (u == removed || u == survivor) continue;
       const std::vector<Vec3>& kept = ghostsOf(u);
-      if (kept.empty()) continue;
+      if (kept.empty() || std::find(met.begin(), met.end(), u) != met.end()) continue;
+      met.push_back(u);
       faces.clear();
       boundaryFacesAround(u, removed, survivor, nullptr, &faces);
       if (!ghostsNear(kept, faces)) return false;
