@@ -57,7 +57,7 @@ EdgeTets edgeTetsOf(const TetMesh& mesh, int a, int b);
 bool removeEdge(const TetMesh& mesh, int a, int b, double min_gain, FlipCandidate* out,
                 const std::function<bool(int, int)>& may_join = nullptr);
 /// The same with the edge's tets found already (edgeTetsOf(mesh, a, b)).
-bool removeEdge(const TetMesh& mesh, int a, int b, const EdgeTets& ring, double min_gain,
+bool removeEdge(const TetMesh& mesh, int a, int b, const EdgeTets& edge, double min_gain,
                 FlipCandidate* out, const std::function<bool(int, int)>& may_join = nullptr);
 
 /// Inputs: mesh; a, b the ends of a boundary edge held by exactly two tets, abcx and abdx (abc and
@@ -71,7 +71,7 @@ bool removeEdge(const TetMesh& mesh, int a, int b, const EdgeTets& ring, double 
 bool flip22(const TetMesh& mesh, int a, int b, double shape_tolerance, double min_gain,
             FlipCandidate* out, double length_floor = 0.0);
 /// The same with the edge's tets found already (edgeTetsOf(mesh, a, b)).
-bool flip22(const TetMesh& mesh, int a, int b, const EdgeTets& pair, double shape_tolerance,
+bool flip22(const TetMesh& mesh, int a, int b, const EdgeTets& edge, double shape_tolerance,
             double min_gain, FlipCandidate* out, double length_floor = 0.0);
 
 /// Does the flip: TetMesh::replaceTets(removed, added) with every added tet new (added_from -1:

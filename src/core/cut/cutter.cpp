@@ -1003,8 +1003,7 @@ int Cutter::groupsAround(int v) const {
       const int from = find(i), to = find(star_place_[u]);
       if (from == to) continue;
       parent[from] = to;
-      // One group: nothing splits, and no caller reads the lists (most stars end here, before
-      // their last faces are looked at).
+      // One group: nothing splits, no caller reads the lists, and the faces left cannot part it.
       if (--components == 1) return 1;
     }
   }
