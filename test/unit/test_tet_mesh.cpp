@@ -612,6 +612,17 @@ TEST(TetMesh, KeepsEachTetsRestQualityThroughEveryChange) {
   TetMesh mesh = bisectedBlock(&rng);  // replacements into freed and new slots
   expectKeptQuality(mesh, "bisected");
   int moves = 0, renames = 0, merges = 0, renames_in_place = 0;
+  // v's tets handed to a new vertex made of `parents`, v removed (the new one, if refused).
+  auto renameAll = [&](int v, const VertexParents& parents, int* count) {
+    const int copy = mesh.addVertex(parents, nullptr);
+    try {
+      mesh.renameVertex(mesh.vertexTets(v), v, copy, nullptr);
+      mesh.removeVertex(v, nullptr);
+      ++*count;
+    } catch (const std::logic_error&) {
+      mesh.removeVertex(copy, nullptr);
+    }
+  };
   for (int k = 0; k < 80; ++k) {
     const auto edges = mesh.edges();
     const auto [v, w] = edges[rng() % edges.size()];
@@ -624,31 +635,15 @@ TEST(TetMesh, KeepsEachTetsRestQualityThroughEveryChange) {
         }
         expectKeptQuality(mesh, "moving " + std::to_string(v));
         break;
-      case 1: {  // v's tets handed to a copy a tenth of the way to w: the copy's rest differs
-        const int copy = mesh.addVertex({{v, 0.9}, {w, 0.1}}, nullptr);
-        try {
-          mesh.renameVertex(mesh.vertexTets(v), v, copy, nullptr);
-          mesh.removeVertex(v, nullptr);
-          ++renames;
-        } catch (const std::logic_error&) {
-          mesh.removeVertex(copy, nullptr);
-        }
+      case 1:  // v's tets handed to a copy a tenth of the way to w: the copy's rest differs
+        renameAll(v, {{v, 0.9}, {w, 0.1}}, &renames);
         expectKeptQuality(mesh, "renaming " + std::to_string(v));
         break;
-      }
-      case 3: {  // v's tets handed to a copy where v is (the cutter's copies are): the tets keep
-                 // what they had, in their new slots
-        const int copy = mesh.addVertex({{v, 1.0}}, nullptr);
-        try {
-          mesh.renameVertex(mesh.vertexTets(v), v, copy, nullptr);
-          mesh.removeVertex(v, nullptr);
-          ++renames_in_place;
-        } catch (const std::logic_error&) {
-          mesh.removeVertex(copy, nullptr);
-        }
+      case 3:  // v's tets handed to a copy where v is (the cutter's copies are): the tets keep
+               // what they had, in their new slots
+        renameAll(v, {{v, 1.0}}, &renames_in_place);
         expectKeptQuality(mesh, "renaming in place " + std::to_string(v));
         break;
-      }
       default:  // a collapse of v onto w
         try {
           mesh.mergeVertices(v, w, nullptr);
