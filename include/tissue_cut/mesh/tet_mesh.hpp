@@ -26,6 +26,16 @@ inline bool sameVertices(const std::array<int, N>& a, const std::array<int, N>& 
   return differ == 0;
 }
 
+/// std::array's own order (the first differing place decides), compared field by field: the
+/// sorts of small vertex tuples ask it often, and std::array's < goes through a generic compare.
+/// Negative when a comes first, 0 when equal, positive when b does.
+template <std::size_t N>
+inline int compareVertices(const std::array<int, N>& a, const std::array<int, N>& b) {
+  for (std::size_t i = 0; i < N; ++i)
+    if (a[i] != b[i]) return a[i] < b[i] ? -1 : 1;
+  return 0;
+}
+
 /// Face f of a tet is opposite its local vertex f. The listed order makes the face normal
 /// (right-hand rule) point out of a positively oriented tet.
 constexpr int kTetFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};

@@ -41,7 +41,7 @@ constexpr int kMaxEdgeRing = 10;
 /// An edge's tets as TetMesh::edgeTets() lists them: `count` of them, the first kMaxEdgeRing
 /// (at most) in `tets`. Found once, they serve both the edge's removal and its 2-2 flip.
 struct EdgeTets {
-  std::array<int, kMaxEdgeRing> tets;
+  std::array<int, kMaxEdgeRing> tets{};
   int count = 0;
 };
 EdgeTets edgeTetsOf(const TetMesh& mesh, int a, int b);

@@ -25,6 +25,16 @@ bool isBoundaryVertex(const TetMesh& mesh, int v);
 /// Inputs: mesh, an edge ab of live tets. Output: whether ab lies on a boundary face.
 bool isBoundaryEdge(const TetMesh& mesh, int a, int b);
 
+/// Inputs: mesh, a live tet t holding a and b. Output: whether one of t's two faces through ab
+/// lies on the boundary (isBoundaryEdge() asks this of each of the edge's tets).
+inline bool openAtEdge(const TetMesh& mesh, int t, int a, int b) {
+  const TetVerts& tv = mesh.tet(t);
+  const int ia = localIndex(tv, a), ib = localIndex(tv, b);
+  for (int f = 0; f < 4; ++f)
+    if (f != ia && f != ib && mesh.neighbor(t, f) < 0) return true;
+  return false;
+}
+
 /// Throws std::invalid_argument naming `who` and the pair unless a and b are two live vertices
 /// joined by an edge of a live tet (what linkConditionHolds and checkCollapse require).
 void requireEdge(const TetMesh& mesh, int a, int b, const char* who);

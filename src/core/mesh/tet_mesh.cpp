@@ -510,12 +510,11 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
       new_faces.emplace_back(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]),
                              static_cast<int>(4 * place) + f);
   }
-  // By face, then place (all distinct: any sort gives this order), compared field by field.
+  // By face, then place (all distinct: any sort gives this order).
   std::sort(new_faces.begin(), new_faces.end(),
             [](const std::pair<FaceKey, int>& x, const std::pair<FaceKey, int>& y) {
-              for (int k = 0; k < 3; ++k)
-                if (x.first[k] != y.first[k]) return x.first[k] < y.first[k];
-              return x.second < y.second;
+              const int order = compareVertices(x.first, y.first);
+              return order != 0 ? order < 0 : x.second < y.second;
             });
   // Each face once: how many tets would share it, and what each new tet will find across it
   // (linkTet()'s search, done here once: the tet the count finds kept, or the other new one).

@@ -6,6 +6,7 @@
 #include "tissue_cut/mesh/inline_vector.hpp"
 #include "tissue_cut/mesh/quality.hpp"
 #include "tissue_cut/remesh/edge_collapse.hpp"
+#include "tissue_cut/remesh/link_condition.hpp"
 
 namespace tissue_cut {
 
@@ -76,13 +77,9 @@ bool removeEdge(const TetMesh& mesh, int a, int b, const EdgeTets& edge, double 
   const std::array<int, kMaxEdgeRing>& ring_tets = edge.tets;
   const int n = edge.count;
   if (n < 3 || n > kMaxEdgeRing) return false;
-  // An edge on the boundary: a face through it, in one of its tets, has no tet across.
-  for (int i = 0; i < n; ++i) {
-    const TetVerts& tv = mesh.tet(ring_tets[i]);
-    const int ia = localIndex(tv, a), ib = localIndex(tv, b);
-    for (int f = 0; f < 4; ++f)
-      if (f != ia && f != ib && mesh.neighbor(ring_tets[i], f) < 0) return false;
-  }
+  // An edge on the boundary (isBoundaryEdge(), asked of the tets found already).
+  for (int i = 0; i < n; ++i)
+    if (openAtEdge(mesh, ring_tets[i], a, b)) return false;
   // The ring: around an interior edge every tet shares its two faces through ab with the next
   // one, so the tets' other two vertices chain into one cycle r0 ... r(n-1).
   std::array<std::array<int, 2>, kMaxEdgeRing> pairs;

@@ -17,14 +17,11 @@ constexpr int kOmega = -1;
 using Edge = std::array<int, 2>;
 using Triangle = std::array<int, 3>;
 
-// Sorted (in std::array's order, compared field by field) and each once.
+// Sorted (in std::array's order) and each once.
 template <typename T>
 void makeSet(std::vector<T>* v) {
-  std::sort(v->begin(), v->end(), [](const T& x, const T& y) {
-    for (std::size_t k = 0; k < x.size(); ++k)
-      if (x[k] != y[k]) return x[k] < y[k];
-    return false;
-  });
+  std::sort(v->begin(), v->end(),
+            [](const T& x, const T& y) { return compareVertices(x, y) < 0; });
   v->erase(std::unique(v->begin(), v->end(), sameVertices<std::tuple_size<T>::value>), v->end());
 }
 
@@ -151,14 +148,8 @@ bool isBoundaryVertex(const TetMesh& mesh, int v) {
 }
 
 bool isBoundaryEdge(const TetMesh& mesh, int a, int b) {
-  for (int t : mesh.vertexTets(a)) {  // the edge's tets, without a list of them
-    const TetVerts& tv = mesh.tet(t);
-    const int ib = localIndex(tv, b);
-    if (ib < 0) continue;
-    const int ia = localIndex(tv, a);
-    for (int f = 0; f < 4; ++f)
-      if (f != ia && f != ib && mesh.neighbor(t, f) < 0) return true;
-  }
+  for (int t : mesh.vertexTets(a))  // the edge's tets, without a list of them
+    if (localIndex(mesh.tet(t), b) >= 0 && openAtEdge(mesh, t, a, b)) return true;
   return false;
 }
 
