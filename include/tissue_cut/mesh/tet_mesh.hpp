@@ -259,7 +259,9 @@ class TetMesh {
 
  private:
   void linkTet(int t);
-  void unlinkTet(int t);
+  /// Unlinks the tets `remove` (marked with replaceTets()' stamp) from their neighbours and their
+  /// vertices' lists.
+  void unlinkTets(const std::vector<int>& remove);
   /// Reorders a face's vertices so that *a has the fewest tets (a face search walks its star).
   void smallestStarFirst(int* a, int* b, int* c) const;
   /// Puts the tet of slot star[i] into slot star[n - 1 - i] with v renamed `copy` (v itself:
@@ -292,6 +294,7 @@ class TetMesh {
   std::vector<TetVerts> merge_moved_;
   // restack()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
   std::vector<int> move_place_, move_vertices_;
+  std::vector<int> unlink_vertices_;  // unlinkTets()' vertices, each once
   std::vector<unsigned> vertex_mark_;  // per vertex slot, the restack() call that noted it
   unsigned vertex_mark_call_ = 0;
   std::vector<TetVerts> move_tets_;

@@ -447,21 +447,36 @@ void TetMesh::linkTet(int t) {
   }
 }
 
-void TetMesh::unlinkTet(int t) {
-  for (int f = 0; f < 4; ++f) {
-    int u = neighbors_[t][f];
-    if (u < 0) {
-      --num_boundary_faces_;
-    } else {
-      for (int g = 0; g < 4; ++g)
-        if (neighbors_[u][g] == t) neighbors_[u][g] = -1;
-      ++num_boundary_faces_;
+void TetMesh::unlinkTets(const std::vector<int>& remove) {
+  // The tets to remove carry this call's stamp (replaceTets()). A face between two of them
+  // neither opens nor closes; one to a kept tet opens on its side; one on the boundary goes.
+  auto removed = [this](int t) { return removing_[t] == removing_stamp_; };
+  std::vector<int>& verts = unlink_vertices_;
+  verts.clear();
+  nextStamp(&vertex_mark_, &vertex_mark_call_, vertex_tets_.size());
+  for (int t : remove) {
+    for (int f = 0; f < 4; ++f) {
+      const int u = neighbors_[t][f];
+      if (u < 0) {
+        --num_boundary_faces_;
+      } else if (!removed(u)) {
+        for (int g = 0; g < 4; ++g)
+          if (neighbors_[u][g] == t) neighbors_[u][g] = -1;
+        ++num_boundary_faces_;
+      }
+      neighbors_[t][f] = -1;
     }
-    neighbors_[t][f] = -1;
+    for (int v : tets_[t])
+      if (vertex_mark_[v] != vertex_mark_call_) {
+        vertex_mark_[v] = vertex_mark_call_;
+        verts.push_back(v);
+      }
   }
-  for (int v : tets_[t]) {
-    auto& list = vertex_tets_[v];
-    list.erase(std::find(list.begin(), list.end(), t));
+  // Each vertex's list loses them in one pass, its other tets in order (as erasing them one by
+  // one left it).
+  for (int v : verts) {
+    std::vector<int>& list = vertex_tets_[v];
+    list.erase(std::remove_if(list.begin(), list.end(), removed), list.end());
   }
 }
 
@@ -544,8 +559,8 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
     }
   }
 
+  unlinkTets(remove);
   for (int t : remove) {
-    unlinkTet(t);
     tet_alive_[t] = 0;
     free_tets_.push_back(t);
     --num_tets_;
