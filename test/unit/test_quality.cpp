@@ -110,6 +110,42 @@ TEST(Quality, SoundTetQualityIsTheSoundnessTestAndQualityInOnePass) {
   EXPECT_EQ(tissue_cut::soundTetQuality(a, b, c, d, k), tetQuality(a, b, c, d));
 }
 
+TEST(Quality, AMovingCornerGivesSoundTetQualityToTheBit) {
+  // The smoothing tries a vertex at many places in its star through MovingCornerTet: each
+  // answer must be soundTetQuality()'s own, to the bit (the smoothing compares them), whichever
+  // corner moves, sound or not, on both sides of the threshold.
+  std::srand(23);
+  auto uniform = [] { return std::rand() / static_cast<double>(RAND_MAX) - 0.5; };
+  const double k = tissue_cut::kMinCollapseRelativeVolume;
+  int sound = 0, unsound = 0;
+  std::array<int, 4> per_corner{};
+  for (int i = 0; i < 4000; ++i) {
+    std::array<Vec3, 4> p;
+    for (Vec3& x : p) x = Vec3(uniform(), uniform(), uniform()) * std::pow(10.0, -(i % 5));
+    const int moving = i % 4;
+    const tissue_cut::MovingCornerTet tet(p, moving);
+    for (int trial = 0; trial < 6; ++trial) {
+      Vec3 at = Vec3(uniform(), uniform(), uniform()) * std::pow(10.0, -(i % 5));
+      // Every third trial near the plane of the fixed face (flattened by 1e-8 .. 1e-3).
+      if (trial % 3 == 1) {
+        const Vec3 &a = p[(moving + 1) % 4], &b = p[(moving + 2) % 4], &c = p[(moving + 3) % 4];
+        const Vec3 n = (b - a).cross(c - a).normalized();
+        const double factor = std::pow(10.0, -3.0 - 5.0 * (i % 89) / 88.0);
+        at -= (1.0 - factor) * n.dot(at - a) * n;
+      }
+      std::array<Vec3, 4> q = p;
+      q[moving] = at;
+      const double expected = tissue_cut::soundTetQuality(q[0], q[1], q[2], q[3], k);
+      ASSERT_EQ(tet.soundQuality(at, k), expected) << "tet " << i << " trial " << trial;
+      (expected >= 0.0 ? sound : unsound) += 1;
+      ++per_corner[moving];
+    }
+  }
+  EXPECT_GT(sound, 4000);
+  EXPECT_GT(unsound, 4000);
+  for (int n : per_corner) EXPECT_EQ(n, 6000);
+}
+
 TEST(Quality, DegenerateOrUndefinedTetsAreZero) {
   const Vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0), d(0, 0, 1);
   const double nan = std::nan("");

@@ -26,6 +26,32 @@ inline bool soundVolume(double vol, double longest2, double min_relative_volume)
 double soundTetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
                        double min_relative_volume);
 
+/// soundTetQuality() of one tet for many places of one corner, the other three fixed (a vertex
+/// tried at trial positions in its star): what the fixed corners alone decide (three edges and
+/// the face they bound) is computed once. The same operations on the same values as
+/// soundTetQuality(): the same answers, bit for bit.
+class MovingCornerTet {
+ public:
+  MovingCornerTet() = default;
+  /// corners: the tet's corners in its order; corners[moving] is not read.
+  MovingCornerTet(const std::array<Vec3, 4>& corners, int moving);
+  /// soundTetQuality(..., min_relative_volume) of the tet with its moving corner at p.
+  double soundQuality(const Vec3& p, double min_relative_volume) const;
+
+ private:
+  template <int kMoving>
+  double soundQualityAt(const Vec3& p, double min_relative_volume) const;
+
+  std::array<Vec3, 4> corner_{};
+  // The edges ab, ac, ad, bc, bd, cd (b - a, ...) and their squared lengths: those between
+  // fixed corners.
+  std::array<Vec3, 6> edge_{};
+  std::array<double, 6> len2_{};
+  Vec3 face_ = Vec3::Zero();  // the fixed face's cross product, as soundTetQuality() takes it
+  double face2_ = 0.0;        // and its squared norm
+  int moving_ = 0;
+};
+
 /// Inradius and circumradius of the tet (a, b, c, d) [m]; 0 and +inf for a degenerate one.
 double tetInradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 double tetCircumradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);

@@ -34,14 +34,11 @@ double tetCircumradius(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
 
 namespace {
 
-// Q from a tet's edge vectors (ab = b - a, ...; cd only through its length), the squared lengths
-// and D = 6 V (see tetQuality).
-inline double qualityOf(const Vec3& ab, const Vec3& ac, const Vec3& ad, const Vec3& bc,
-                        const Vec3& bd, double ab2, double ac2, double ad2, double bc2, double bd2,
-                        double cd2, double det) {
-  Eigen::Array4d faces, lengths;
-  faces << bc.cross(bd).squaredNorm(), ac.cross(ad).squaredNorm(), ab.cross(ad).squaredNorm(),
-      ab.cross(ac).squaredNorm();
+// Q from the four faces' squared doubled areas (bc x bd, ac x ad, ab x ad, ab x ac: opposite
+// a, b, c and d), the squared edge lengths and D = 6 V (see tetQuality).
+inline double qualityOfFaces(Eigen::Array4d faces, double ab2, double ac2, double ad2, double bc2,
+                             double bd2, double cd2, double det) {
+  Eigen::Array4d lengths;
   lengths << ab2 * cd2, ac2 * bd2, ad2 * bc2, 0.0;
   faces = faces.sqrt();
   lengths = lengths.sqrt();
@@ -54,6 +51,16 @@ inline double qualityOf(const Vec3& ab, const Vec3& ac, const Vec3& ad, const Ve
   const double quality = 3.0 * det2 / (area2 * std::sqrt(heron));
   if (!std::isfinite(quality)) return 0.0;
   return std::min(1.0, quality);
+}
+
+// The same from a tet's edge vectors (ab = b - a, ...; cd only through its length).
+inline double qualityOf(const Vec3& ab, const Vec3& ac, const Vec3& ad, const Vec3& bc,
+                        const Vec3& bd, double ab2, double ac2, double ad2, double bc2, double bd2,
+                        double cd2, double det) {
+  Eigen::Array4d faces;
+  faces << bc.cross(bd).squaredNorm(), ac.cross(ad).squaredNorm(), ab.cross(ad).squaredNorm(),
+      ab.cross(ac).squaredNorm();
+  return qualityOfFaces(faces, ab2, ac2, ad2, bc2, bd2, cd2, det);
 }
 
 }  // namespace
@@ -81,6 +88,74 @@ double soundTetQuality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
   if (!soundVolume(vol, std::max({ab2, ac2, ad2, bc2, bd2, cd2}), min_relative_volume))
     return -1.0;
   return qualityOf(ab, ac, ad, bc, bd, ab2, ac2, ad2, bc2, bd2, cd2, det);
+}
+
+MovingCornerTet::MovingCornerTet(const std::array<Vec3, 4>& corners, int moving)
+    : corner_(corners), moving_(moving) {
+  const Vec3 &a = corners[0], &b = corners[1], &c = corners[2], &d = corners[3];
+  // The face opposite the moving corner: bc x bd, ac x ad, ab x ad or ab x ac.
+  switch (moving) {
+    case 0:
+      edge_[3] = c - b, edge_[4] = d - b, edge_[5] = d - c;
+      face_ = edge_[3].cross(edge_[4]);
+      break;
+    case 1:
+      edge_[1] = c - a, edge_[2] = d - a, edge_[5] = d - c;
+      face_ = edge_[1].cross(edge_[2]);
+      break;
+    case 2:
+      edge_[0] = b - a, edge_[2] = d - a, edge_[4] = d - b;
+      face_ = edge_[0].cross(edge_[2]);
+      break;
+    default:
+      edge_[0] = b - a, edge_[1] = c - a, edge_[3] = c - b;
+      face_ = edge_[0].cross(edge_[1]);
+      break;
+  }
+  for (int e = 0; e < 6; ++e) len2_[e] = edge_[e].squaredNorm();  // the moving ones not read
+  face2_ = face_.squaredNorm();
+}
+
+template <int kMoving>
+double MovingCornerTet::soundQualityAt(const Vec3& p, double min_relative_volume) const {
+  // The moving corner's three edges (as soundTetQuality() takes them from the corners), the
+  // others kept.
+  const Vec3 &a = corner_[0], &b = corner_[1], &c = corner_[2], &d = corner_[3];
+  const Vec3 ab = kMoving == 0 ? Vec3(b - p) : kMoving == 1 ? Vec3(p - a) : edge_[0];
+  const Vec3 ac = kMoving == 0 ? Vec3(c - p) : kMoving == 2 ? Vec3(p - a) : edge_[1];
+  const Vec3 ad = kMoving == 0 ? Vec3(d - p) : kMoving == 3 ? Vec3(p - a) : edge_[2];
+  const Vec3 bc = kMoving == 1 ? Vec3(c - p) : kMoving == 2 ? Vec3(p - b) : edge_[3];
+  const Vec3 bd = kMoving == 1 ? Vec3(d - p) : kMoving == 3 ? Vec3(p - b) : edge_[4];
+  const Vec3 cd = kMoving == 2 ? Vec3(d - p) : kMoving == 3 ? Vec3(p - c) : edge_[5];
+  const double ab2 = kMoving <= 1 ? ab.squaredNorm() : len2_[0];
+  const double ac2 = kMoving == 0 || kMoving == 2 ? ac.squaredNorm() : len2_[1];
+  const double ad2 = kMoving == 0 || kMoving == 3 ? ad.squaredNorm() : len2_[2];
+  const double bc2 = kMoving == 1 || kMoving == 2 ? bc.squaredNorm() : len2_[3];
+  const double bd2 = kMoving == 1 || kMoving == 3 ? bd.squaredNorm() : len2_[4];
+  const double cd2 = kMoving >= 2 ? cd.squaredNorm() : len2_[5];
+  const Vec3 acad = kMoving == 1 ? face_ : Vec3(ac.cross(ad));
+  const double det = ab.dot(acad);
+  if (!soundVolume(det / 6.0, std::max({ab2, ac2, ad2, bc2, bd2, cd2}), min_relative_volume))
+    return -1.0;
+  Eigen::Array4d faces;
+  faces << (kMoving == 0 ? face2_ : bc.cross(bd).squaredNorm()),
+      (kMoving == 1 ? face2_ : acad.squaredNorm()),
+      (kMoving == 2 ? face2_ : ab.cross(ad).squaredNorm()),
+      (kMoving == 3 ? face2_ : ab.cross(ac).squaredNorm());
+  return qualityOfFaces(faces, ab2, ac2, ad2, bc2, bd2, cd2, det);
+}
+
+double MovingCornerTet::soundQuality(const Vec3& p, double min_relative_volume) const {
+  switch (moving_) {
+    case 0:
+      return soundQualityAt<0>(p, min_relative_volume);
+    case 1:
+      return soundQualityAt<1>(p, min_relative_volume);
+    case 2:
+      return soundQualityAt<2>(p, min_relative_volume);
+    default:
+      return soundQualityAt<3>(p, min_relative_volume);
+  }
 }
 
 double restQuality(const TetMesh& mesh, int t) { return mesh.restQuality(t); }

@@ -30,13 +30,19 @@ std::array<Vec3, 4> restCorners(const TetMesh& mesh, int t, int v, const Vec3& p
 // tends to stop the next one). The order changes how soon a call stops, never what it answers.
 // When it looks at every tet, (*q)[i] is the Q of star[i] and *worst_at the place in the star
 // of the worst (the first of equals).
+// Each star tet's fixed corners are prepared (`tets`) when it is first looked at (most tries
+// look at a few tets once; a move looks at each ~5 times).
 double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const Vec3& p,
-                 double floor, std::vector<int>* order, std::vector<double>* q, int* worst_at) {
+                 double floor, std::vector<int>* order, std::vector<double>* q, int* worst_at,
+                 std::vector<MovingCornerTet>* tets, std::vector<char>* prepared) {
   double worst = 1.0;  // Q is at most 1: after the first look, the lowest Q seen
   for (auto it = order->begin(); it != order->end(); ++it) {
     const int i = *it;
-    const auto c = restCorners(mesh, star[i], v, p);
-    const double qi = soundTetQuality(c[0], c[1], c[2], c[3], kMinCollapseRelativeVolume);
+    if (!(*prepared)[i]) {
+      (*prepared)[i] = 1;
+      (*tets)[i] = MovingCornerTet(restCorners(mesh, star[i], v, p), localIndex(mesh.tet(star[i]), v));
+    }
+    const double qi = (*tets)[i].soundQuality(p, kMinCollapseRelativeVolume);
     if (qi < 0.0) {
       worst = -1.0;  // not sound
     } else {
@@ -57,6 +63,8 @@ double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const
 struct SmoothingScratch {
   std::vector<double> q;   // per place in the star
   std::vector<int> order;  // the star's places in the order worstWith() looks at them
+  std::vector<MovingCornerTet> tets;  // per place, prepared when first looked at
+  std::vector<char> prepared;
 };
 [[gnu::noinline]] SmoothingScratch& smoothingScratch() {
   thread_local SmoothingScratch scratch;
@@ -175,6 +183,8 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
   order.resize(star.size());
   std::iota(order.begin(), order.end(), 0);
   sortByQuality(star_q, &order);
+  scratch.tets.resize(star.size());
+  scratch.prepared.assign(star.size(), 0);
   for (int round = 0; round < 4; ++round) {
     // The worst tet at the best position so far (known from the look that made it the best).
     const int worst_t = worst_at;
@@ -186,7 +196,8 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
       for (double step : {1.0, 0.5, 0.25, 0.125}) {
         const Vec3 p = project(out.freedom, dir, origin, from + step * (target - from));
         int at = static_cast<int>(star.size());
-        const double q = worstWith(*mesh, star, v, p, best_q + 1e-12, &order, &star_q, &at);
+        const double q = worstWith(*mesh, star, v, p, best_q + 1e-12, &order, &star_q, &at,
+                                   &scratch.tets, &scratch.prepared);
         if (q > best_q + 1e-12) {  // every tet was looked at: `at` is the worst's place
           best_q = q;
           best = p;
