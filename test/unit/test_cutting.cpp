@@ -407,6 +407,60 @@ double segmentTetDistance(const Vec3& a, const Vec3& b, const std::array<Vec3, 4
 
 }  // namespace
 
+// A vertex is taken by a sweep when it lies within a band of a swept triangle's plane and
+// projects inside it; the snap band and the wound's wider band ask it of one point and triangle
+// in turn. pointNearTriangle() against a plain reference (distance along the unit normal, and
+// the projection's coordinates solved from the edges), and PointOverTriangle's answers at
+// several distances, asked in any order, against pointNearTriangle()'s own, to the bit.
+TEST(SweepGeometry, PointNearTriangleAtSeveralDistancesAnswersAsEachAlone) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), band(0.0, 0.6);
+  int near = 0, far = 0, outside = 0, degenerate = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    Triangle t{Vec3(unit(rng), unit(rng), unit(rng)), Vec3(unit(rng), unit(rng), unit(rng)),
+               Vec3(unit(rng), unit(rng), unit(rng))};
+    if (trial % 500 == 0) t[2] = t[1];  // no area: near nothing
+    const PreparedTriangle prepared(t);
+    const Vec3 x(unit(rng), unit(rng), unit(rng));
+    const std::array<double, 4> distances{band(rng), band(rng), band(rng), 0.0};
+    // The reference, where the triangle has an area and x is clear of its edges' planes.
+    const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
+    bool inside = false, clear = n.norm() > 1e-6;
+    if (clear) {
+      const Vec3 u = n.normalized();
+      const Vec3 y = x - u.dot(x - t[0]) * u;
+      // y = t0 + s (t1 - t0) + r (t2 - t0): the 2x2 normal equations.
+      const Vec3 e1 = t[1] - t[0], e2 = t[2] - t[0], w = y - t[0];
+      const double a11 = e1.dot(e1), a12 = e1.dot(e2), a22 = e2.dot(e2);
+      const double det = a11 * a22 - a12 * a12;
+      const double s = (a22 * e1.dot(w) - a12 * e2.dot(w)) / det;
+      const double r = (a11 * e2.dot(w) - a12 * e1.dot(w)) / det;
+      inside = s >= 0 && r >= 0 && s + r <= 1;
+      clear = std::min({std::abs(s), std::abs(r), std::abs(1 - s - r)}) > 1e-9;
+    }
+    const double height = clear ? std::abs(n.normalized().dot(x - t[0])) : 0.0;
+    const PointOverTriangle over(x, prepared);
+    for (int k : {trial % 4, (trial + 2) % 4, (trial + 1) % 4, (trial + 3) % 4}) {
+      const double d = distances[k];
+      const bool alone = pointNearTriangle(x, prepared, d);
+      ASSERT_EQ(over.near(d), alone) << "trial " << trial << ", distance " << d;
+      if (!clear || std::abs(height - d) < 1e-9) continue;
+      ASSERT_EQ(alone, inside && height <= d) << "trial " << trial << ", distance " << d;
+      (alone ? near : inside ? far : outside) += 1;
+    }
+    if (n.norm() == 0.0) {
+      EXPECT_FALSE(over.near(1e9));
+      ++degenerate;
+    }
+  }
+  std::printf("pointNearTriangle: %d near, %d over the triangle but too far, %d outside\n", near,
+              far, outside);
+  EXPECT_GT(near, 300);
+  EXPECT_GT(far, 300);
+  EXPECT_GT(outside, 3000);
+  EXPECT_EQ(degenerate, 8);
+}
+
 // The sweep leaves out tets by this bound while the blade and tissue have not moved enough to
 // reach them: it must never exceed the true distance, and it must be close enough to be of use.
 TEST(SweepGeometry, SegmentTetGapIsALowerBoundOfTheDistanceAndATightOne) {

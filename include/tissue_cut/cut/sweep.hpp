@@ -4,6 +4,8 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
+#include <cmath>
 
 #include "tissue_cut/cut/blade.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -19,14 +21,22 @@ std::array<Triangle, 2> sweptTriangles(const BladeSegment& from, const BladeSegm
 /// Area of a triangle [m^2].
 double triangleArea(const Triangle& t);
 
-/// A triangle with its normal n = (t[1] - t[0]) x (t[2] - t[0]) and |n|, for many tests against
-/// one triangle (a tick's swept triangles): the tests below take the same values either way.
+/// A triangle with its normal n = (t[1] - t[0]) x (t[2] - t[0]), |n|, |n|^2 and the edges the
+/// barycentric coordinates take (t[2] - t[1], t[0] - t[2]), for many tests against one triangle
+/// (a tick's swept triangles): the tests below take the same values either way.
 struct PreparedTriangle {
   explicit PreparedTriangle(const Triangle& triangle)
-      : t(triangle), n((t[1] - t[0]).cross(t[2] - t[0])), len(n.norm()) {}
+      : t(triangle),
+        n((t[1] - t[0]).cross(t[2] - t[0])),
+        len(n.norm()),
+        nn(n.squaredNorm()),
+        e12(t[2] - t[1]),
+        e20(t[0] - t[2]) {}
   Triangle t;
   Vec3 n;
   double len;
+  double nn;
+  Vec3 e12, e20;
 };
 
 /// Where segment p->q crosses triangle t: true with the segment parameter s in [0, 1] and the
@@ -44,6 +54,33 @@ bool pointNearTriangle(const Vec3& x, const PreparedTriangle& t, double distance
 inline bool pointNearTriangle(const Vec3& x, const Triangle& t, double distance) {
   return pointNearTriangle(x, PreparedTriangle(t), distance);
 }
+
+/// Whether x, `d` [m] from the triangle's plane along n / |n|, projects inside the triangle.
+bool projectsInside(const Vec3& x, double d, const PreparedTriangle& t);
+
+/// pointNearTriangle() of one point and one triangle at several distances: the distance from
+/// the plane and where the point projects are found once, when first needed (the same values).
+class PointOverTriangle {
+ public:
+  PointOverTriangle(const Vec3& x, const PreparedTriangle& t) : x_(x), t_(t) {}
+  /// pointNearTriangle(x, t, distance).
+  bool near(double distance) const {
+    if (!measured_) {
+      measured_ = true;
+      if (t_.len > 0) d_ = t_.n.dot(x_ - t_.t[0]) / t_.len;  // else NaN: near nothing
+    }
+    if (!(std::abs(d_) <= distance)) return false;
+    if (inside_ < 0) inside_ = projectsInside(x_, d_, t_) ? 1 : 0;
+    return inside_ == 1;
+  }
+
+ private:
+  const Vec3& x_;
+  const PreparedTriangle& t_;
+  mutable bool measured_ = false;
+  mutable double d_ = std::numeric_limits<double>::quiet_NaN();
+  mutable signed char inside_ = -1;  // not known yet
+};
 
 /// A lower bound of the distance [m] between segment base->tip and the tet with these corners
 /// (separating axes: coordinate axes, the segment's, towards the tet, the tet's face normals);

@@ -763,13 +763,11 @@ void Cutter::trySnap(int v, const std::array<Triangle, 2>& tris,
   // line the blade came from. Only a vertex not on a wound: a wound's own points there are
   // followed by the band below.
   const bool at_crease = !onWound(v) && nearTrailingLine(x, tris);
-  if (!at_crease && !pointNearTriangle(x, prepared[0], snap_distance_) &&
-      !pointNearTriangle(x, prepared[1], snap_distance_)) {
+  const PointOverTriangle over0(x, prepared[0]), over1(x, prepared[1]);
+  if (!at_crease && !over0.near(snap_distance_) && !over1.near(snap_distance_)) {
     // A point of an earlier cut whose wall runs along this sweep is taken as lying on it within
     // a wider band: the blade is moving inside that wound (which the tissue has moved since).
-    if (!onWound(v) ||
-        (!pointNearTriangle(x, prepared[0], wound_snap_distance_) &&
-         !pointNearTriangle(x, prepared[1], wound_snap_distance_)) ||
+    if (!onWound(v) || (!over0.near(wound_snap_distance_) && !over1.near(wound_snap_distance_)) ||
         !woundFacing(v, normal))
       return;
   }
@@ -1851,10 +1849,10 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     if (onCut(v) || !mesh_->vertexAlive(v)) continue;  // snapped since: only looks
     const Vec3& x = mesh_->current(v);
     const bool crease = !onWound(v) && nearTrailingLine(x, tris);
+    const PointOverTriangle over0(x, prepared[0]), over1(x, prepared[1]);
     const bool over =
-        (!crease || out) &&
-        ((nearPlane(0, x, snap_distance_) && pointNearTriangle(x, prepared[0], snap_distance_)) ||
-         (nearPlane(1, x, snap_distance_) && pointNearTriangle(x, prepared[1], snap_distance_)));
+        (!crease || out) && ((nearPlane(0, x, snap_distance_) && over0.near(snap_distance_)) ||
+                             (nearPlane(1, x, snap_distance_) && over1.near(snap_distance_)));
     // Whether the sweep would pass v to trySnap(), as far as it is in doubt: 1 yes, 0 no (the
     // vertex is left alone), -1 not known here (the tick is swept).
     auto looked = [&] {
@@ -1877,10 +1875,8 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
     // Within the wound's wider band, the tets around it may lie outside the sweep's box (grown by
     // the snap distance only): the sweep's filters decide.
     if (!(onWound(v) &&
-          ((nearPlane(0, x, wound_snap_distance_) &&
-            pointNearTriangle(x, prepared[0], wound_snap_distance_)) ||
-           (nearPlane(1, x, wound_snap_distance_) &&
-            pointNearTriangle(x, prepared[1], wound_snap_distance_))) &&
+          ((nearPlane(0, x, wound_snap_distance_) && over0.near(wound_snap_distance_)) ||
+           (nearPlane(1, x, wound_snap_distance_) && over1.near(wound_snap_distance_))) &&
           woundFacing(v, normal))) {
       // Clear of this tick's quad: every later tick's lies within the moves since of this
       // blade, and the vertex moves within the tissue's.

@@ -14,10 +14,9 @@ double triangleArea(const Triangle& t) { return 0.5 * (t[1] - t[0]).cross(t[2] -
 namespace {
 
 // Barycentric coordinates of x (assumed in the plane) in triangle t with normal n = (b-a)x(c-a).
-Vec3 barycentric(const Vec3& x, const Triangle& t, const Vec3& n) {
-  const double nn = n.squaredNorm();
-  const double u = n.dot((t[2] - t[1]).cross(x - t[1])) / nn;
-  const double v = n.dot((t[0] - t[2]).cross(x - t[2])) / nn;
+Vec3 barycentric(const Vec3& x, const PreparedTriangle& p) {
+  const double u = p.n.dot(p.e12.cross(x - p.t[1])) / p.nn;
+  const double v = p.n.dot(p.e20.cross(x - p.t[2])) / p.nn;
   return Vec3(u, v, 1.0 - u - v);
 }
 
@@ -33,7 +32,7 @@ bool segmentCrossesTriangle(const Vec3& p, const Vec3& q, const PreparedTriangle
   if (!((dp > 0 && dq < 0) || (dp < 0 && dq > 0))) return false;
   const double param = dp / (dp - dq);
   const Vec3 x = p + param * (q - p);
-  const Vec3 b = barycentric(x, t, n);
+  const Vec3 b = barycentric(x, prepared);
   if (b.minCoeff() < -margin) return false;
   *s = param;
   *bary = b;
@@ -57,15 +56,16 @@ double segmentSegmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, co
                    distanceToSegment(q0, p0, p1), distanceToSegment(q1, p0, p1)});
 }
 
+bool projectsInside(const Vec3& x, double d, const PreparedTriangle& prepared) {
+  const Vec3 projected = x - d * prepared.n / prepared.len;
+  return barycentric(projected, prepared).minCoeff() >= 0.0;
+}
+
 bool pointNearTriangle(const Vec3& x, const PreparedTriangle& prepared, double distance) {
-  const Triangle& t = prepared.t;
-  const Vec3& n = prepared.n;
-  const double len = prepared.len;
-  if (!(len > 0)) return false;
-  const double d = n.dot(x - t[0]) / len;
+  if (!(prepared.len > 0)) return false;
+  const double d = prepared.n.dot(x - prepared.t[0]) / prepared.len;
   if (std::abs(d) > distance) return false;
-  const Vec3 projected = x - d * n / len;
-  return barycentric(projected, t, n).minCoeff() >= 0.0;
+  return projectsInside(x, d, prepared);
 }
 
 double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners,
