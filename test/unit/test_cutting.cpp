@@ -836,6 +836,13 @@ TEST(SweepGeometry, SegmentSegmentDistanceIsTheDistance) {
     if (trial % 10 == 2) q1 = q0;                    // a point
     const double d = segmentSegmentDistance(p0, p1, q0, q1), s = sampled(p0, p1, q0, q1);
     ASSERT_LE(d, s + 1e-12) << "trial " << trial;
+    // Parallel segments and points take the ends: the least of the four ends' distances, to
+    // the bit (the ends' squares compared, one root taken).
+    if (trial % 10 == 1 || trial % 10 == 2) {
+      ASSERT_EQ(d, std::min({distanceToSegment(p0, q0, q1), distanceToSegment(p1, q0, q1),
+                             distanceToSegment(q0, p0, p1), distanceToSegment(q1, p0, p1)}))
+          << "trial " << trial;
+    }
     ASSERT_GE(d, s - 0.5 / 200 * ((p1 - p0).norm() + (q1 - q0).norm()) - 1e-12)
         << "trial " << trial;
   }

@@ -309,6 +309,13 @@ inline double signedVolume(const Vec3& a, const Vec3& b, const Vec3& c, const Ve
   return (b - a).dot((c - a).cross(d - a)) / 6.0;
 }
 
+/// Squared distance [m^2] from x to the segment from a along d (= b - a, |d|^2 = len2): the
+/// square of distanceToSegment(x, a, b), before its square root.
+inline double squaredDistanceToSegment(const Vec3& x, const Vec3& a, const Vec3& d, double len2) {
+  const double t = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (x - (a + t * d)).squaredNorm();
+}
+
 /// Distance [m] from x to the segment ab (to a when the segment is a point).
 double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b);
 

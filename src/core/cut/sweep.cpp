@@ -52,8 +52,13 @@ double segmentSegmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, co
     const double s = v.cross(w).dot(n) / nn, t = u.cross(w).dot(n) / nn;
     if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) return std::abs(w.dot(n)) / std::sqrt(nn);
   }
-  return std::min({distanceToSegment(p0, q0, q1), distanceToSegment(p1, q0, q1),
-                   distanceToSegment(q0, p0, p1), distanceToSegment(q1, p0, p1)});
+  // The nearest of the four ends' distances to the other segment: the least square, then its
+  // root (the root is monotone: the same value as the least of the roots).
+  const double uu = u.squaredNorm(), vv = v.squaredNorm();
+  return std::sqrt(std::min({squaredDistanceToSegment(p0, q0, v, vv),
+                             squaredDistanceToSegment(p1, q0, v, vv),
+                             squaredDistanceToSegment(q0, p0, u, uu),
+                             squaredDistanceToSegment(q1, p0, u, uu)}));
 }
 
 bool projectsInside(const Vec3& x, double d, const PreparedTriangle& prepared) {

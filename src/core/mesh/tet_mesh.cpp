@@ -35,9 +35,7 @@ int localFace(const TetVerts& t, int a, int b, int c) {
 
 double distanceToSegment(const Vec3& x, const Vec3& a, const Vec3& b) {
   const Vec3 d = b - a;
-  const double len2 = d.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((x - a).dot(d) / len2, 0.0, 1.0) : 0.0;
-  return (x - (a + t * d)).norm();
+  return std::sqrt(squaredDistanceToSegment(x, a, d, d.squaredNorm()));
 }
 
 double pointTriangleDistance(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c) {
