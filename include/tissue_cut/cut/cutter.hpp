@@ -318,6 +318,7 @@ class Cutter {
   /// Whether a vertex of tv is on a wound.
   bool anyOnWound(const TetVerts& tv) const;
   BladeSegment gap_ref_, gap_last_;
+  GapSegment gap_segment_;  // gap_ref_'s blade prepared for gapOf()
   bool gap_valid_ = false;
   double gap_blade_ = 0.0, gap_tissue_ = 0.0;
   // Beyond any reach until the gaps are taken again: a gap carried over (see sweepQuery()) is

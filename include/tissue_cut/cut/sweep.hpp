@@ -90,6 +90,22 @@ class PointOverTriangle {
 double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners,
                      double enough = HUGE_VAL);
 
+/// A segment base->tip prepared for many segmentTetGap() calls (a blade against each tet near
+/// it): what depends on the segment alone is computed once (the same values).
+struct GapSegment {
+  GapSegment() = default;
+  GapSegment(const Vec3& base, const Vec3& tip);
+  Vec3 base = Vec3::Zero(), tip = Vec3::Zero();
+  Vec3 d = Vec3::Zero();                     // tip - base
+  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // its box, from base
+  double len = 0.0;                          // |d|
+  Vec3 u = Vec3::Zero();                     // d / len, where len > 0
+  bool finite = true;
+};
+/// segmentTetGap(s.base, s.tip, corners, enough).
+double segmentTetGap(const GapSegment& s, const std::array<Vec3, 4>& corners,
+                     double enough = HUGE_VAL);
+
 /// The distance [m] between segments p0-p1 and q0-q1.
 double segmentSegmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1);
 

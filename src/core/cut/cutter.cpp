@@ -384,7 +384,7 @@ double Cutter::gapOf(int t) const {
   // 20k replay 9,808 gaps instead of 8,182, 3.6 M instructions instead of 4.9 M. Stopping past
   // gap_far_ plus a quarter, a half, one or two mean edges cost more: 3.9-4.7 M.)
   const TetVerts& tv = mesh_->tet(t);
-  return segmentTetGap(gap_ref_.base, gap_ref_.tip,
+  return segmentTetGap(gap_segment_,
                        {mesh_->current(tv[0]), mesh_->current(tv[1]), mesh_->current(tv[2]),
                         mesh_->current(tv[3])},
                        gap_far_);
@@ -406,6 +406,7 @@ void Cutter::retakeGaps(const BladeSegment& from) {
   const bool carry = !restart && std::isfinite(moves);
   gap_far_ = std::max({snap_distance_, frontShift(), wound_snap_distance_}) + 0.3 * mean_edge_;
   gap_ref_ = from;
+  gap_segment_ = GapSegment(from.base, from.tip);
   gap_blade_ = 0.0;
   gap_tissue_ = 0.0;
   near_gap_.resize(near_cache_.size());

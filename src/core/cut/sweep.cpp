@@ -73,8 +73,21 @@ bool pointNearTriangle(const Vec3& x, const PreparedTriangle& prepared, double d
   return projectsInside(x, d, prepared);
 }
 
+GapSegment::GapSegment(const Vec3& base_, const Vec3& tip_)
+    : base(base_), tip(tip_), d(tip_ - base_) {
+  finite = d.allFinite();
+  lo = d.cwiseMin(Vec3::Zero());
+  hi = d.cwiseMax(Vec3::Zero());
+  len = d.norm();
+  if (len > 0) u = d / len;
+}
+
 double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners,
                      double enough) {
+  return segmentTetGap(GapSegment(base, tip), corners, enough);
+}
+
+double segmentTetGap(const GapSegment& s, const std::array<Vec3, 4>& corners, double enough) {
   // Separating axes between the tet and the segment: the three coordinate axes, the segment's
   // own, the direction from its line to the tet's centroid and the tet's four face normals.
   // Along any unit axis, the gap between the two projections is at most the distance. The
@@ -82,22 +95,21 @@ double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4
   enough = std::max(enough, 0.0);  // (the answer is never below 0)
   std::array<Vec3, 4> p;
   for (int i = 0; i < 4; ++i) {
-    p[i] = corners[i] - base;
+    p[i] = corners[i] - s.base;
     if (!p[i].allFinite()) return 0.0;  // a corner anywhere: no bound
   }
-  const Vec3 d = tip - base;
-  if (!d.allFinite()) return 0.0;
+  const Vec3& d = s.d;
+  if (!s.finite) return 0.0;
   Vec3 lo = p[0], hi = p[0];
   for (int i = 1; i < 4; ++i) {
     lo = lo.cwiseMin(p[i]);
     hi = hi.cwiseMax(p[i]);
   }
-  const Vec3 slo = d.cwiseMin(Vec3::Zero()), shi = d.cwiseMax(Vec3::Zero());
-  double gap = std::max((lo - shi).maxCoeff(), (slo - hi).maxCoeff());
+  double gap = std::max((lo - s.hi).maxCoeff(), (s.lo - hi).maxCoeff());
   if (gap > enough) return gap;
-  const double len = d.norm();
+  const double len = s.len;
   if (len > 0) {
-    const Vec3 u = d / len;
+    const Vec3& u = s.u;
     double a = HUGE_VAL, z = -HUGE_VAL;
     for (const Vec3& q : p) {
       a = std::min(a, u.dot(q));
