@@ -5,7 +5,6 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <cmath>
 
 #include "tissue_cut/cut/blade.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
@@ -96,10 +95,10 @@ struct GapSegment {
   GapSegment() = default;
   GapSegment(const Vec3& base, const Vec3& tip);
   Vec3 base = Vec3::Zero(), tip = Vec3::Zero();
-  Vec3 d = Vec3::Zero();                     // tip - base
+  Vec3 d = Vec3::Zero();                      // tip - base
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // its box, from base
-  double len = 0.0;                          // |d|
-  Vec3 u = Vec3::Zero();                     // d / len, where len > 0
+  double len = 0.0;                           // |d|
+  Vec3 u = Vec3::Zero();                      // d / len, where len > 0
   bool finite = true;
 };
 /// segmentTetGap(s.base, s.tip, corners, enough).

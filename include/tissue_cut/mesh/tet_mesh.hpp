@@ -294,7 +294,7 @@ class TetMesh {
   std::vector<TetVerts> merge_moved_;
   // restack()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
   std::vector<int> move_place_, move_vertices_;
-  std::vector<int> unlink_vertices_;  // unlinkTets()' vertices, each once
+  std::vector<int> unlink_vertices_;   // unlinkTets()' vertices, each once
   std::vector<unsigned> vertex_mark_;  // per vertex slot, the restack() call that noted it
   unsigned vertex_mark_call_ = 0;
   std::vector<TetVerts> move_tets_;

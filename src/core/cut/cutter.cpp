@@ -1677,7 +1677,14 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   double radius2 = 0.0;
   for (const Vec3& p : x) radius2 = std::max(radius2, (p - centre).squaredNorm());
   const double radius = std::sqrt(radius2);
-  const double ball = distanceToSegment(centre, at.base, at.tip) - radius;
+  // The blade's direction and squared length, for the distances below (distanceToSegment()'s
+  // values, its subtraction made once).
+  const Vec3 along = at.tip - at.base;
+  const double along2 = along.squaredNorm();
+  auto bladeDistance = [&](const Vec3& p) {
+    return std::sqrt(squaredDistanceToSegment(p, at.base, along, along2));
+  };
+  const double ball = bladeDistance(centre) - radius;
   if (!withinBand(ball)) return;
   // Each vertex once a batch (it is in ~20 of these tets): what it gives does not depend on
   // the tet. Its distance from the blade is kept for the edges below.
@@ -1689,7 +1696,7 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
     }
     quiet_seen_[tv[k]] = quiet_batch_;
     const double own = onWound(tv[k]) ? wide : snap_distance_;
-    const double d = distanceToSegment(x[k], at.base, at.tip);
+    const double d = bladeDistance(x[k]);
     quiet_dist_[tv[k]] = dist[k] = d;
     if (d <= own + near && !snapLooksOnly(tv[k])) quiet_verts_.push_back({d - own, tv[k]});
   }
@@ -1823,6 +1830,8 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
   Vec3 normal = prepared[0].n;
   if (normal.norm() <= tiny) normal = prepared[1].n;
   normal.normalize();
+  const Vec3 to_along = to.tip - to.base;  // distanceToSegment()'s, made once
+  const double to_along2 = to_along.squaredNorm();
   if (out) {
     out->vertex = -1;
     out->more = false;
@@ -1881,7 +1890,7 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
           woundFacing(v, normal))) {
       // Clear of this tick's quad: every later tick's lies within the moves since of this
       // blade, and the vertex moves within the tissue's.
-      q.next = moved + distanceToSegment(x, to.base, to.tip) - wide;
+      q.next = moved + std::sqrt(squaredDistanceToSegment(x, to.base, to_along, to_along2)) - wide;
       continue;
     }
     if (!out) return false;

@@ -40,7 +40,8 @@ double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const
     const int i = *it;
     if (!(*prepared)[i]) {
       (*prepared)[i] = 1;
-      (*tets)[i] = MovingCornerTet(restCorners(mesh, star[i], v, p), localIndex(mesh.tet(star[i]), v));
+      (*tets)[i] =
+          MovingCornerTet(restCorners(mesh, star[i], v, p), localIndex(mesh.tet(star[i]), v));
     }
     const double qi = (*tets)[i].soundQuality(p, kMinCollapseRelativeVolume);
     if (qi < 0.0) {
@@ -61,10 +62,10 @@ double worstWith(const TetMesh& mesh, const std::vector<int>& star, int v, const
 // smoothVertex()'s lists, one a thread, kept for their room. Not inlined: its caller then holds
 // a plain pointer (each lookup of a thread_local in a shared library is a call).
 struct SmoothingScratch {
-  std::vector<double> q;   // per place in the star
-  std::vector<int> order;  // the star's places in the order worstWith() looks at them
+  std::vector<double> q;              // per place in the star
+  std::vector<int> order;             // the star's places in the order worstWith() looks at them
   std::vector<MovingCornerTet> tets;  // per place, prepared when first looked at
-  std::vector<char> prepared;
+  std::vector<char> prepared;         // per place, whether tets[place] is prepared
 };
 [[gnu::noinline]] SmoothingScratch& smoothingScratch() {
   thread_local SmoothingScratch scratch;
