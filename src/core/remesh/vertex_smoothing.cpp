@@ -179,7 +179,9 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
   Vec3 best = origin;
   double best_q = out.worst_before;
   // The trial positions lie close together: the tets worst at the best position so far are the
-  // likeliest to stop a trial that does not beat it. Looked at in that order.
+  // likeliest to stop a trial that does not beat it. Looked at from the worst where the vertex
+  // is; each new best position's worst tet then goes to the front (sorting the star again at
+  // each one looked at no fewer tets and cost 0.4 M instructions on the 20k replay).
   std::vector<int>& order = scratch.order;
   order.resize(star.size());
   std::iota(order.begin(), order.end(), 0);
@@ -204,7 +206,9 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
           best = p;
           worst_at = at;
           improved = true;
-          sortByQuality(star_q, &order);
+          // The worst tet at the new best position first; the others keep their order.
+          const auto worst = std::find(order.begin(), order.end(), worst_at);
+          std::rotate(order.begin(), worst, worst + 1);
         }
       }
     if (!improved) break;
