@@ -406,6 +406,10 @@ class Cutter {
   std::vector<QuietVertex> quiet_verts_;
   std::vector<QuietEdge> quiet_edges_;
   std::vector<QuietFace> quiet_faces_, quiet_base_faces_;  // near the tip's path, the base's
+  // sortQuiet()'s merges, kept for their room.
+  std::vector<QuietVertex> quiet_verts_merged_;
+  std::vector<QuietEdge> quiet_edges_merged_;
+  std::vector<QuietFace> quiet_faces_merged_;
   std::vector<std::pair<int, int>> quiet_scratch_;
   double quiet_slack_ = 0.0;     // rounding room of the distances above
   bool quiet_unsorted_ = false;  // features joined since they were sorted

@@ -1749,10 +1749,20 @@ void Cutter::sortQuiet() {
   quiet_unsorted_ = false;
   // A feature met twice with the same key keeps one entry, tested again as soon as either would
   // be: one of them may have come back with a tet a change made (its `next` not known yet).
-  auto tidy = [](auto* list) {
+  // The entries from the front that are in order (what the last sort left, when features
+  // joined since: refreshGrid()) are merged with the others sorted, not sorted again.
+  auto tidy = [](auto* list, auto* scratch) {
     using Item = typename std::decay_t<decltype(*list)>::value_type;
-    std::sort(list->begin(), list->end(),
-              [](const Item& x, const Item& y) { return x.key() < y.key(); });
+    auto less = [](const Item& x, const Item& y) { return x.key() < y.key(); };
+    std::size_t sorted = 1;
+    while (sorted < list->size() && !less((*list)[sorted], (*list)[sorted - 1])) ++sorted;
+    if (sorted < list->size()) {
+      std::sort(list->begin() + sorted, list->end(), less);
+      scratch->resize(list->size());  // its room kept: swapped with the list's
+      std::merge(list->begin(), list->begin() + sorted, list->begin() + sorted, list->end(),
+                 scratch->begin(), less);
+      list->swap(*scratch);
+    }
     std::size_t kept = 0;
     for (std::size_t i = 0; i < list->size(); ++i) {
       if (kept > 0 && (*list)[kept - 1].key() == (*list)[i].key()) {
@@ -1764,10 +1774,10 @@ void Cutter::sortQuiet() {
     }
     list->resize(kept);
   };
-  tidy(&quiet_verts_);
-  tidy(&quiet_edges_);
-  tidy(&quiet_faces_);
-  tidy(&quiet_base_faces_);
+  tidy(&quiet_verts_, &quiet_verts_merged_);
+  tidy(&quiet_edges_, &quiet_edges_merged_);
+  tidy(&quiet_faces_, &quiet_faces_merged_);
+  tidy(&quiet_base_faces_, &quiet_faces_merged_);
 }
 
 double Cutter::quietReach(const BladeSegment& at) {
