@@ -59,6 +59,7 @@ bool projectsInside(const Vec3& x, double d, const PreparedTriangle& t);
 
 /// pointNearTriangle() of one point and one triangle at several distances: the distance from
 /// the plane and where the point projects are found once, when first needed (the same values).
+/// Holds x and t by reference: they must outlive it.
 class PointOverTriangle {
  public:
   PointOverTriangle(const Vec3& x, const PreparedTriangle& t) : x_(x), t_(t) {}
@@ -93,7 +94,7 @@ double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4
 /// it): what depends on the segment alone is computed once (the same values).
 struct GapSegment {
   GapSegment() = default;
-  GapSegment(const Vec3& base, const Vec3& tip);
+  GapSegment(const Vec3& from, const Vec3& to);  // base, tip
   Vec3 base = Vec3::Zero(), tip = Vec3::Zero();
   Vec3 d = Vec3::Zero();                      // tip - base
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // its box, from base

@@ -295,7 +295,8 @@ class TetMesh {
   // restack()'s scratch: per tet slot its place in the star; the star's tets and adjacency.
   std::vector<int> move_place_, move_vertices_;
   std::vector<int> unlink_vertices_;   // unlinkTets()' vertices, each once
-  std::vector<unsigned> vertex_mark_;  // per vertex slot, the restack() call that noted it
+  std::vector<unsigned> vertex_mark_;  // per vertex slot, the restack() or unlinkTets() call
+                                       // that noted it
   unsigned vertex_mark_call_ = 0;
   std::vector<TetVerts> move_tets_;
   std::vector<std::array<int, 4>> move_neighbors_;

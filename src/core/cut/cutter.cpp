@@ -1661,7 +1661,6 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
                       const std::vector<std::pair<int, int>>& cut_edges) {
   const BladeSegment& at = quiet_ref_;
   const double wide = std::max(snap_distance_, wound_snap_distance_);
-  const double length = (at.tip - at.base).norm();
   const double near = quiet_reach_ + quiet_slack_;
   // Within the widest band of its vertices, `near` further: the wound's band only where one is
   // on a wound (looked up only where the two bands answer differently).
@@ -1678,9 +1677,10 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   for (const Vec3& p : x) radius2 = std::max(radius2, (p - centre).squaredNorm());
   const double radius = std::sqrt(radius2);
   // The blade's direction and squared length, for the distances below (distanceToSegment()'s
-  // values, its subtraction made once).
+  // values, its subtraction made once) and the fronts' scale.
   const Vec3 along = at.tip - at.base;
   const double along2 = along.squaredNorm();
+  const double length = std::sqrt(along2);
   auto bladeDistance = [&](const Vec3& p) {
     return std::sqrt(squaredDistanceToSegment(p, at.base, along, along2));
   };
@@ -1840,7 +1840,7 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
   Vec3 normal = prepared[0].n;
   if (normal.norm() <= tiny) normal = prepared[1].n;
   normal.normalize();
-  const Vec3 to_along = to.tip - to.base;  // distanceToSegment()'s, made once
+  const Vec3 to_along = to.tip - to.base;  // for distanceToSegment()'s values, made once
   const double to_along2 = to_along.squaredNorm();
   if (out) {
     out->vertex = -1;

@@ -13,7 +13,7 @@ double triangleArea(const Triangle& t) { return 0.5 * (t[1] - t[0]).cross(t[2] -
 
 namespace {
 
-// Barycentric coordinates of x (assumed in the plane) in triangle t with normal n = (b-a)x(c-a).
+// Barycentric coordinates of x (assumed in the plane) in the prepared triangle.
 Vec3 barycentric(const Vec3& x, const PreparedTriangle& p) {
   const double u = p.n.dot(p.e12.cross(x - p.t[1])) / p.nn;
   const double v = p.n.dot(p.e20.cross(x - p.t[2])) / p.nn;
@@ -73,8 +73,7 @@ bool pointNearTriangle(const Vec3& x, const PreparedTriangle& prepared, double d
   return projectsInside(x, d, prepared);
 }
 
-GapSegment::GapSegment(const Vec3& base_, const Vec3& tip_)
-    : base(base_), tip(tip_), d(tip_ - base_) {
+GapSegment::GapSegment(const Vec3& from, const Vec3& to) : base(from), tip(to), d(to - from) {
   finite = d.allFinite();
   lo = d.cwiseMin(Vec3::Zero());
   hi = d.cwiseMax(Vec3::Zero());
