@@ -469,9 +469,9 @@ TEST(SweepGeometry, SegmentTetGapIsALowerBoundOfTheDistanceAndATightOne) {
   int far = 0, stopped_early = 0;
   double ratio_sum = 0.0;
   // One segment prepared once and asked against every tet below (as the cutter asks its blade
-  // against each tet near it) answers as each call alone does.
+  // against each tet near it), and for a corner's distance, answers as each call alone does.
   const Vec3 kept_base(0.3, -2.0, 0.5), kept_tip(-0.2, 2.5, -0.4);
-  const GapSegment kept(kept_base, kept_tip);
+  const PreparedSegment kept(kept_base, kept_tip);
   for (int trial = 0; trial < 3000; ++trial) {
     std::array<Vec3, 4> p;
     for (Vec3& x : p) x = Vec3(corner(rng), corner(rng), corner(rng));
@@ -481,7 +481,8 @@ TEST(SweepGeometry, SegmentTetGapIsALowerBoundOfTheDistanceAndATightOne) {
     const double distance = segmentTetDistance(a, b, p);
     const double gap = segmentTetGap(a, b, p);
     ASSERT_EQ(segmentTetGap(kept, p, 0.2), segmentTetGap(kept_base, kept_tip, p, 0.2));
-    ASSERT_EQ(segmentTetGap(GapSegment(a, b), p), gap);
+    ASSERT_EQ(segmentTetGap(PreparedSegment(a, b), p), gap);
+    ASSERT_EQ(kept.distanceTo(p[trial % 4]), distanceToSegment(p[trial % 4], kept_base, kept_tip));
     ASSERT_LE(gap, distance + 1e-9) << "trial " << trial;
     ASSERT_GE(gap, 0.0);
     // Told what is enough, it may stop at a bound past that, and otherwise answers the same.

@@ -318,7 +318,7 @@ class Cutter {
   /// Whether a vertex of tv is on a wound.
   bool anyOnWound(const TetVerts& tv) const;
   BladeSegment gap_ref_, gap_last_;
-  GapSegment gap_segment_;  // gap_ref_'s blade prepared for gapOf()
+  PreparedSegment gap_segment_;  // gap_ref_'s blade prepared for gapOf()
   bool gap_valid_ = false;
   double gap_blade_ = 0.0, gap_tissue_ = 0.0;
   // Beyond any reach until the gaps are taken again: a gap carried over (see sweepQuery()) is
@@ -375,6 +375,7 @@ class Cutter {
   // the features of tets a change adds join them (refreshGrid()).
   bool quiet_valid_ = false;
   BladeSegment quiet_ref_;
+  PreparedSegment quiet_segment_;  // quiet_ref_'s blade prepared for quietTet()'s distances
   double quiet_reach_ = 0.0, quiet_moved_ = 0.0;
   // Each kept feature with how far the moves must add up before a sweep could act on it (its
   // distance from quiet_ref_ less its band), in that order: a tick tests only those its moves

@@ -90,20 +90,26 @@ class PointOverTriangle {
 double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners,
                      double enough = HUGE_VAL);
 
-/// A segment base->tip prepared for many segmentTetGap() calls (a blade against each tet near
-/// it): what depends on the segment alone is computed once (the same values).
-struct GapSegment {
-  GapSegment() = default;
-  GapSegment(const Vec3& from, const Vec3& to);  // base, tip
+/// A segment base->tip prepared for many segmentTetGap() calls and point distances (a blade
+/// against each tet or vertex near it): what depends on the segment alone is computed once (the
+/// same values as the calls on its two ends).
+struct PreparedSegment {
+  PreparedSegment() = default;
+  PreparedSegment(const Vec3& from, const Vec3& to);  // base, tip
+  /// distanceToSegment(x, base, tip).
+  double distanceTo(const Vec3& x) const {
+    return std::sqrt(squaredDistanceToSegment(x, base, d, len2));
+  }
   Vec3 base = Vec3::Zero(), tip = Vec3::Zero();
   Vec3 d = Vec3::Zero();                      // tip - base
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // its box, from base
+  double len2 = 0.0;                          // |d|^2
   double len = 0.0;                           // |d|
   Vec3 u = Vec3::Zero();                      // d / len, where len > 0
   bool finite = true;
 };
 /// segmentTetGap(s.base, s.tip, corners, enough).
-double segmentTetGap(const GapSegment& s, const std::array<Vec3, 4>& corners,
+double segmentTetGap(const PreparedSegment& s, const std::array<Vec3, 4>& corners,
                      double enough = HUGE_VAL);
 
 /// The distance [m] between segments p0-p1 and q0-q1.

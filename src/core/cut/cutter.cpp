@@ -406,7 +406,7 @@ void Cutter::retakeGaps(const BladeSegment& from) {
   const bool carry = !restart && std::isfinite(moves);
   gap_far_ = std::max({snap_distance_, frontShift(), wound_snap_distance_}) + 0.3 * mean_edge_;
   gap_ref_ = from;
-  gap_segment_ = GapSegment(from.base, from.tip);
+  gap_segment_ = PreparedSegment(from.base, from.tip);
   gap_blade_ = 0.0;
   gap_tissue_ = 0.0;
   near_gap_.resize(near_cache_.size());
@@ -1676,15 +1676,7 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   double radius2 = 0.0;
   for (const Vec3& p : x) radius2 = std::max(radius2, (p - centre).squaredNorm());
   const double radius = std::sqrt(radius2);
-  // The blade's direction and squared length, for the distances below (distanceToSegment()'s
-  // values, its subtraction made once) and the fronts' scale.
-  const Vec3 along = at.tip - at.base;
-  const double along2 = along.squaredNorm();
-  const double length = std::sqrt(along2);
-  auto bladeDistance = [&](const Vec3& p) {
-    return std::sqrt(squaredDistanceToSegment(p, at.base, along, along2));
-  };
-  const double ball = bladeDistance(centre) - radius;
+  const double ball = quiet_segment_.distanceTo(centre) - radius;
   if (!withinBand(ball)) return;
   // Each vertex once a batch (it is in ~20 of these tets): what it gives does not depend on
   // the tet. Its distance from the blade is kept for the edges below.
@@ -1696,7 +1688,7 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
     }
     quiet_seen_[tv[k]] = quiet_batch_;
     const double own = onWound(tv[k]) ? wide : snap_distance_;
-    const double d = bladeDistance(x[k]);
+    const double d = quiet_segment_.distanceTo(x[k]);
     quiet_dist_[tv[k]] = dist[k] = d;
     if (d <= own + near && !snapLooksOnly(tv[k])) quiet_verts_.push_back({d - own, tv[k]});
   }
@@ -1724,7 +1716,8 @@ void Cutter::quietTet(const TetVerts& tv, double lower,
   // The fronts' paths start at the tip and the base moved along the blade by frontShift() (along
   // the blade of their tick's end): within the moves since of these points, plus the shift times
   // the turn of the blade's direction (at most 4 moves over its length).
-  const Vec3 line = (at.tip - at.base) / length;
+  const double length = quiet_segment_.len;
+  const Vec3 line = quiet_segment_.d / length;
   const double front_scale = 1.0 + 4.0 * frontShift() / length;
   for (int end = 0; end < 2; ++end) {
     const Vec3 front =
@@ -1811,6 +1804,7 @@ double Cutter::quietReach(const BladeSegment& at) {
                  2.0 * slack;
   if (!(quiet_reach_ > 0.0)) return 0.0;
   quiet_ref_ = at;
+  quiet_segment_ = PreparedSegment(at.base, at.tip);
   const std::vector<std::pair<int, int>>& cut_edges = refusedEdges();
   newQuietBatch();
   for (const auto& [pid, p] : pending_) quietTet(p.cut.corner, 0.0, cut_edges);
@@ -1840,8 +1834,7 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
   Vec3 normal = prepared[0].n;
   if (normal.norm() <= tiny) normal = prepared[1].n;
   normal.normalize();
-  const Vec3 to_along = to.tip - to.base;  // for distanceToSegment()'s values, made once
-  const double to_along2 = to_along.squaredNorm();
+  const PreparedSegment to_blade(to.base, to.tip);  // for the distances below
   if (out) {
     out->vertex = -1;
     out->more = false;
@@ -1900,7 +1893,7 @@ bool Cutter::watchedQuiet(const BladeSegment& from, const BladeSegment& to, doub
           woundFacing(v, normal))) {
       // Clear of this tick's quad: every later tick's lies within the moves since of this
       // blade, and the vertex moves within the tissue's.
-      q.next = moved + std::sqrt(squaredDistanceToSegment(x, to.base, to_along, to_along2)) - wide;
+      q.next = moved + to_blade.distanceTo(x) - wide;
       continue;
     }
     if (!out) return false;

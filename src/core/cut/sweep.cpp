@@ -73,20 +73,23 @@ bool pointNearTriangle(const Vec3& x, const PreparedTriangle& prepared, double d
   return projectsInside(x, d, prepared);
 }
 
-GapSegment::GapSegment(const Vec3& from, const Vec3& to) : base(from), tip(to), d(to - from) {
+PreparedSegment::PreparedSegment(const Vec3& from, const Vec3& to)
+    : base(from), tip(to), d(to - from) {
   finite = d.allFinite();
   lo = d.cwiseMin(Vec3::Zero());
   hi = d.cwiseMax(Vec3::Zero());
-  len = d.norm();
+  len2 = d.squaredNorm();
+  len = std::sqrt(len2);  // d.norm()
   if (len > 0) u = d / len;
 }
 
 double segmentTetGap(const Vec3& base, const Vec3& tip, const std::array<Vec3, 4>& corners,
                      double enough) {
-  return segmentTetGap(GapSegment(base, tip), corners, enough);
+  return segmentTetGap(PreparedSegment(base, tip), corners, enough);
 }
 
-double segmentTetGap(const GapSegment& s, const std::array<Vec3, 4>& corners, double enough) {
+double segmentTetGap(const PreparedSegment& s, const std::array<Vec3, 4>& corners,
+                     double enough) {
   // Separating axes between the tet and the segment: the three coordinate axes, the segment's
   // own, the direction from its line to the tet's centroid and the tet's four face normals.
   // Along any unit axis, the gap between the two projections is at most the distance. The
