@@ -504,7 +504,14 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
     removing_[t] = removing_stamp_;
   }
   auto removed = [this](int t) { return removing_[t] == removing_stamp_; };
-  std::vector<std::pair<FaceKey, int>>& new_faces = face_scratch_;
+  // Packed two ids to a word (ids checked non-negative first): the pairs' own order is the
+  // order of (a, b, c, place), compared as two integers instead of field by field.
+  std::vector<std::pair<std::uint64_t, std::uint64_t>>& new_faces = face_scratch_;
+  auto pack = [](int x, int y) {
+    return std::uint64_t{static_cast<std::uint32_t>(x)} << 32 | static_cast<std::uint32_t>(y);
+  };
+  auto high = [](std::uint64_t w) { return static_cast<int>(w >> 32); };
+  auto low = [](std::uint64_t w) { return static_cast<int>(w & 0xffffffffu); };
   new_faces.clear();
   for (std::size_t place = 0; place < add.size(); ++place) {
     const TetVerts& tv = add[place];
@@ -519,24 +526,25 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
       throw std::logic_error("TetMesh::replaceTets: tet (" + std::to_string(tv[0]) + ", " +
                              std::to_string(tv[1]) + ", " + std::to_string(tv[2]) + ", " +
                              std::to_string(tv[3]) + ") has no positive rest volume");
-    for (int f = 0; f < 4; ++f)
-      new_faces.emplace_back(sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]),
-                             static_cast<int>(4 * place) + f);
+    for (int f = 0; f < 4; ++f) {
+      const FaceKey k = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
+      new_faces.emplace_back(pack(k[0], k[1]), pack(k[2], static_cast<int>(4 * place) + f));
+    }
   }
   // By face, then place (all distinct: any sort gives this order).
-  std::sort(new_faces.begin(), new_faces.end(),
-            [](const std::pair<FaceKey, int>& x, const std::pair<FaceKey, int>& y) {
-              const int order = compareVertices(x.first, y.first);
-              return order != 0 ? order < 0 : x.second < y.second;
-            });
+  std::sort(new_faces.begin(), new_faces.end());
   // Each face once: how many tets would share it, and what each new tet will find across it
   // (linkTet()'s search, done here once: the tet the count finds kept, or the other new one).
   face_across_.assign(new_faces.size(), -1);
   for (std::size_t i = 0; i < new_faces.size();) {
-    const FaceKey key = new_faces[i].first;
+    const std::uint64_t ab = new_faces[i].first;
+    const int c_key = high(new_faces[i].second);
     const std::size_t first = i;
     int count = 0;
-    for (; i < new_faces.size() && sameVertices(new_faces[i].first, key); ++i) ++count;
+    for (; i < new_faces.size() && new_faces[i].first == ab && high(new_faces[i].second) == c_key;
+         ++i)
+      ++count;
+    const FaceKey key{high(ab), low(ab), c_key};
     int a = key[0], b = key[1], c = key[2];
     smallestStarFirst(&a, &b, &c);
     int kept = 0, across = -1;
@@ -549,11 +557,13 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
       throw std::logic_error("TetMesh::replaceTets: face (" + std::to_string(key[0]) + ", " +
                              std::to_string(key[1]) + ", " + std::to_string(key[2]) +
                              ") would be shared by " + std::to_string(count + kept) + " tets");
+    const int place0 = low(new_faces[first].second);
     if (count == 2) {
-      face_across_[new_faces[first].second] = -2 - new_faces[first + 1].second;
-      face_across_[new_faces[first + 1].second] = -2 - new_faces[first].second;
+      const int place1 = low(new_faces[first + 1].second);
+      face_across_[place0] = -2 - place1;
+      face_across_[place1] = -2 - place0;
     } else {
-      face_across_[new_faces[first].second] = across;
+      face_across_[place0] = across;
     }
   }
 
