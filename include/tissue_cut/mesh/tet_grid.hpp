@@ -123,9 +123,12 @@ class TetGrid {
   std::vector<Vec3> built_positions_;
   // update()'s scratch: the vertices it files anew.
   std::vector<int> moved_scratch_;
-  // Per tet slot, the stamp of the query or refresh that last took it: each tet once a call.
+  // Per tet slot, the stamp of the refresh that last took it: each tet once a call.
   mutable std::vector<unsigned> seen_;
   mutable unsigned stamp_ = 0;
+  // filed()'s tets, a bit per tet slot: each once, read out in id order (a sort of the list
+  // had cost more than the cells' loop). All clear between calls.
+  mutable std::vector<std::uint64_t> found_bits_;
 };
 
 }  // namespace tissue_cut

@@ -251,7 +251,8 @@ void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool cu
                     std::vector<int>* out) const {
   out->clear();
   if (cells_.empty()) return;
-  nextStamp(&seen_, &stamp_, mesh.tetSlots());
+  growSlots(&found_bits_, (static_cast<std::size_t>(mesh.tetSlots()) + 63) / 64, std::uint64_t{0});
+  std::size_t first_word = found_bits_.size(), last_word = 0;
   const Vec3 margin = Vec3::Constant(margin_);
   const auto [i0, j0, k0] = cellOf(lo - margin);
   const auto [i1, j1, k1] = cellOf(hi + margin);
@@ -265,11 +266,25 @@ void TetGrid::filed(const TetMesh& mesh, const Vec3& lo, const Vec3& hi, bool cu
           if (e.lo[0] > qhi[0] || e.hi[0] < qlo[0] || e.lo[1] > qhi[1] || e.hi[1] < qlo[1] ||
               e.lo[2] > qhi[2] || e.hi[2] < qlo[2])
             continue;
-          if (t >= mesh.tetSlots() || seen_[t] == stamp_ || !mesh.tetAlive(t)) continue;
-          seen_[t] = stamp_;
-          if (!current || tetBoxMeets(mesh, t, lo, hi)) out->push_back(t);
+          if (t >= mesh.tetSlots() || !mesh.tetAlive(t)) continue;
+          const std::size_t word = static_cast<std::size_t>(t) >> 6;
+          const std::uint64_t bit = std::uint64_t{1} << (t & 63);
+          if (found_bits_[word] & bit) continue;  // met in another cell
+          // (One left out here is tested again in its other cells, with the same answer.)
+          if (current && !tetBoxMeets(mesh, t, lo, hi)) continue;
+          found_bits_[word] |= bit;
+          first_word = std::min(first_word, word);
+          last_word = std::max(last_word, word);
         }
-  std::sort(out->begin(), out->end());
+  // Read out in id order, each word cleared for the next call.
+  for (std::size_t word = first_word; word <= last_word && word < found_bits_.size(); ++word) {
+    std::uint64_t bits = found_bits_[word];
+    found_bits_[word] = 0;
+    while (bits) {
+      out->push_back(static_cast<int>(word * 64 + __builtin_ctzll(bits)));
+      bits &= bits - 1;
+    }
+  }
 }
 
 void TetGrid::candidates(const TetMesh& mesh, const Vec3& lo, const Vec3& hi,
