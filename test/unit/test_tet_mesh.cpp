@@ -11,6 +11,7 @@
 #include "tissue_cut/mesh/block.hpp"
 #include "tissue_cut/mesh/inline_vector.hpp"
 #include "tissue_cut/mesh/quality.hpp"
+#include "tissue_cut/mesh/sorted_search.hpp"
 #include "tissue_cut/mesh/stamped_table.hpp"
 #include "tissue_cut/mesh/tet_mesh.hpp"
 
@@ -135,6 +136,28 @@ TEST(StampedTable, AnswersAsAMapThroughPassesAndGrowth) {
 
 // The in-place lists of a split: filled to their capacity, and never past it (a list that grew
 // past its room would write over whatever follows it).
+TEST(SortedSearch, LowerBoundIndexAnswersAsStdLowerBound) {
+  // Every key from below the first to past the last, in lists of every length up to 70 (the
+  // halvings' odd and even lengths), with runs of equal ids and gaps, and an empty list.
+  std::mt19937 rng(7);
+  for (int n = 0; n <= 70; ++n) {
+    for (int trial = 0; trial < 4; ++trial) {
+      std::vector<int> list;
+      int id = static_cast<int>(rng() % 5) - 2;
+      for (int i = 0; i < n; ++i) {
+        id += static_cast<int>(rng() % 3);  // steps of 0 (a repeat), 1 or 2
+        list.push_back(id);
+      }
+      const int lo = list.empty() ? -3 : list.front() - 2, hi = list.empty() ? 3 : list.back() + 2;
+      for (int key = lo; key <= hi; ++key) {
+        const auto expected = std::lower_bound(list.begin(), list.end(), key) - list.begin();
+        ASSERT_EQ(lowerBoundIndex(list, key), static_cast<std::size_t>(expected))
+            << "length " << n << ", key " << key;
+      }
+    }
+  }
+}
+
 TEST(InlineVector, HoldsUpToItsCapacityAndRefusesMore) {
   InlineVector<int, 3> v{4, 5};
   EXPECT_EQ(v.size(), 2u);

@@ -12,6 +12,8 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "tissue_cut/mesh/sorted_search.hpp"
+
 namespace tissue_cut {
 
 namespace {
@@ -257,8 +259,8 @@ void Cutter::joinNearCache(const std::vector<int>& tets) {
   grid_.filedNear(*mesh_, tets, near_cache_lo_, near_cache_hi_, &near);
   for (std::size_t k = 0; k < tets.size(); ++k) {
     const int t = tets[k];
-    const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
-    const std::size_t i = it - near_cache_.begin();
+    const std::size_t i = lowerBoundIndex(near_cache_, t);
+    const auto it = near_cache_.begin() + static_cast<std::ptrdiff_t>(i);
     const bool cached = it != near_cache_.end() && *it == t;
     if (!near[k]) {
       if (cached) {
@@ -284,7 +286,7 @@ void Cutter::joinNearCache(const std::vector<int>& tets) {
 void Cutter::keepClose(std::size_t place, bool inserted) {
   if (!closeKept()) return;  // made anew before the next sweep looks
   const int i = static_cast<int>(place);
-  auto at = std::lower_bound(near_close_.begin(), near_close_.end(), i);
+  auto at = near_close_.begin() + static_cast<std::ptrdiff_t>(lowerBoundIndex(near_close_, i));
   if (inserted)
     for (auto shift = at; shift != near_close_.end(); ++shift) ++*shift;
   // A place whose gap grew past gap_far_ may stay: the sweep tests each gap it looks at.
@@ -456,9 +458,8 @@ void Cutter::sweepQuery(const BladeSegment& from, const BladeSegment& to, const 
   far_pieces_.clear();
   for (const auto& [pid, p] : pending_)
     for (int t : p.pieces) {
-      const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
-      if (it == near_cache_.end() || *it != t) continue;
-      const std::size_t i = it - near_cache_.begin();
+      const std::size_t i = lowerBoundIndex(near_cache_, t);
+      if (i == near_cache_.size() || near_cache_[i] != t) continue;
       if (!(near_gap_[i] <= gap_far_)) far_pieces_.push_back(static_cast<int>(i));
     }
   std::sort(far_pieces_.begin(), far_pieces_.end());
@@ -1502,11 +1503,10 @@ int Cutter::sweepLooksAt(int v, const BladeSegment& from, const BladeSegment& to
   const double reach = reaches.first, wound_reach = reaches.second;
   if (!(wound_reach < gap_far_)) return -1;  // every gap measured anew
   auto queried = [&](int t) {
-    const auto it = std::lower_bound(near_cache_.begin(), near_cache_.end(), t);
-    if (it == near_cache_.end() || *it != t) return false;
-    const std::size_t i = it - near_cache_.begin();
-    const bool close =
-        std::binary_search(near_close_.begin(), near_close_.end(), static_cast<int>(i));
+    const std::size_t i = lowerBoundIndex(near_cache_, t);
+    if (i == near_cache_.size() || near_cache_[i] != t) return false;
+    const std::size_t c = lowerBoundIndex(near_close_, static_cast<int>(i));
+    const bool close = c < near_close_.size() && near_close_[c] == static_cast<int>(i);
     if (!close && !(isPendingPiece(t) && !(near_gap_[i] <= gap_far_))) return false;
     const double gap = near_gap_[i] != kGapDue ? near_gap_[i] : dueGap(i);
     return gapTakes(t, gap, reach, wound_reach) && mesh_->tetAlive(t) &&
