@@ -158,6 +158,21 @@ TEST(SortedSearch, LowerBoundIndexAnswersAsStdLowerBound) {
   }
 }
 
+TEST(TetMesh, LocalIndexIsTheFirstPlaceHoldingTheVertex) {
+  // Each place, ids of either sign and far apart, a vertex not held, and (in no tet, but the
+  // answer is defined) a repeated one: the first place, as a search from the front finds it.
+  const TetVerts tv{7, -3, 1 << 30, 0};
+  EXPECT_EQ(localIndex(tv, 7), 0);
+  EXPECT_EQ(localIndex(tv, -3), 1);
+  EXPECT_EQ(localIndex(tv, 1 << 30), 2);
+  EXPECT_EQ(localIndex(tv, 0), 3);
+  EXPECT_EQ(localIndex(tv, 8), -1);
+  EXPECT_EQ(localIndex(tv, -1), -1);
+  EXPECT_EQ(localIndex(TetVerts{4, 5, 5, 4}, 5), 1);
+  EXPECT_EQ(localIndex(TetVerts{4, 5, 5, 4}, 4), 0);
+  EXPECT_EQ(localIndex(TetVerts{1, 2, 3, 9}, 9), 3);
+}
+
 TEST(InlineVector, HoldsUpToItsCapacityAndRefusesMore) {
   InlineVector<int, 3> v{4, 5};
   EXPECT_EQ(v.size(), 2u);

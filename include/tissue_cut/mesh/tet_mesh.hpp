@@ -92,11 +92,13 @@ inline void nextStamp(std::vector<unsigned>* stamps, unsigned* call, std::size_t
   }
 }
 
-/// Where vertex v sits in tet t (0-3), or -1 when t does not hold it.
+/// Where vertex v sits in tet t (0-3; the first place, were it in two), or -1 when t does not
+/// hold it. The four places compared at once, the first found by its bit: a loop stopping at the
+/// match mispredicted its exit about as often as it ran (the place is any of the four).
 inline int localIndex(const TetVerts& t, int v) {
-  for (int i = 0; i < 4; ++i)
-    if (t[i] == v) return i;
-  return -1;
+  const unsigned at = static_cast<unsigned>(t[0] == v) | static_cast<unsigned>(t[1] == v) << 1 |
+                      static_cast<unsigned>(t[2] == v) << 2 | static_cast<unsigned>(t[3] == v) << 3;
+  return at != 0 ? __builtin_ctz(at) : -1;
 }
 
 /// Hash of a face named by its three vertex ids (sorted, as the maps of faces keep them).

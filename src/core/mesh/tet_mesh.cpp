@@ -24,11 +24,13 @@ bool contains(const TetVerts& t, int v) {
   return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v);
 }
 
-// Local face of tet t made of vertices {a, b, c}: the one opposite the fourth vertex.
+// Local face of tet t made of vertices {a, b, c}: the one opposite the fourth vertex (the first
+// place holding none of them; -1 when there is none). Found as localIndex() finds its place.
 int localFace(const TetVerts& t, int a, int b, int c) {
+  unsigned other = 0;
   for (int i = 0; i < 4; ++i)
-    if (t[i] != a && t[i] != b && t[i] != c) return i;
-  return -1;
+    other |= static_cast<unsigned>((t[i] != a) & (t[i] != b) & (t[i] != c)) << i;
+  return other != 0 ? __builtin_ctz(other) : -1;
 }
 
 }  // namespace
@@ -549,7 +551,8 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
     smallestStarFirst(&a, &b, &c);
     int kept = 0, across = -1;
     for (int t : vertex_tets_[a])
-      if (!removed(t) && contains(tets_[t], b) && contains(tets_[t], c)) {
+      // One branch (taken at most twice a face), not three that go either way.
+      if (!removed(t) & contains(tets_[t], b) & contains(tets_[t], c)) {
         ++kept;
         across = t;
       }
@@ -694,7 +697,10 @@ void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecor
     removing_[star[i]] = removing_stamp_;
     place[star[i]] = i;
   }
-  auto inStar = [&](int t) { return t >= 0 && removing_[t] == removing_stamp_; };
+  // (Without a branch on the boundary's -1: slot 0 read in its place.)
+  auto inStar = [&](int t) {
+    return (t >= 0) & (removing_[t >= 0 ? t : 0] == removing_stamp_);
+  };
   auto slotOf = [&](int t) { return star[n - 1 - place[t]]; };  // where t's tet goes
   move_tets_.assign(n, TetVerts{});
   move_neighbors_.assign(n, std::array<int, 4>{});

@@ -14,7 +14,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-bool contains(const TetVerts& tv, int v) { return std::find(tv.begin(), tv.end(), v) != tv.end(); }
+bool contains(const TetVerts& tv, int v) {
+  return (tv[0] == v) | (tv[1] == v) | (tv[2] == v) | (tv[3] == v);
+}
 
 // How far the boundary faces that move with `removed` would leave their planes, relative to each
 // face's longest edge.
@@ -162,7 +164,7 @@ CollapseCheck evaluate(const TetMesh& mesh, int removed, int survivor, bool link
   auto moved = [&](int t, TetVerts* tv) {
     *tv = mesh.tet(t);
     if (contains(*tv, check.survivor)) return false;  // vanishes with the edge
-    *std::find(tv->begin(), tv->end(), check.removed) = check.survivor;
+    for (int& x : *tv) x = x == check.removed ? check.survivor : x;  // (each tet holds it once)
     return true;
   };
   TetVerts tv;
