@@ -992,9 +992,9 @@ int Cutter::groupsAround(int v) const {
   for (int i = 0; i < n; ++i) {
     const TetVerts& tv = mesh_->tet(star[i]);
     for (int f = 0; f < 4; ++f) {
-      if (tv[f] == v) continue;  // the face opposite v does not hold it
+      // Not the face opposite v (it does not hold v), nor one on the boundary: one branch.
       const int u = mesh_->neighbor(star[i], f);
-      if (u < 0) continue;
+      if ((tv[f] == v) | (u < 0)) continue;
       if (star_stamp_[u] != star_call_ || star_place_[u] < i) continue;
       const int a = tv[kTetFace[f][0]], b = tv[kTetFace[f][1]], c = tv[kTetFace[f][2]];
       if (any_marked && markedAt(a) && markedAt(b) && markedAt(c) &&

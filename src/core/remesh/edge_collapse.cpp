@@ -28,7 +28,8 @@ double boundaryDeviation(const TetMesh& mesh, int removed, int survivor, double 
     // survivor.
     const TetVerts& tv = mesh.tet(t);
     for (int f = 0; f < 4; ++f) {
-      if (mesh.neighbor(t, f) >= 0 || tv[f] == removed) continue;
+      // (One branch, mostly taken, where two went either way: `|`, not `||`.)
+      if ((mesh.neighbor(t, f) >= 0) | (tv[f] == removed)) continue;
       worst = std::max(worst, planeDeviation(mesh.rest(tv[kTetFace[f][0]]),
                                              mesh.rest(tv[kTetFace[f][1]]),
                                              mesh.rest(tv[kTetFace[f][2]]), move,
@@ -78,7 +79,7 @@ void findFolds(const TetMesh& mesh, int v, const Known& known, const Add& add) {
   for (int t : mesh.vertexTets(v)) {
     const TetVerts& tv = mesh.tet(t);
     for (int f = 0; f < 4; ++f) {
-      if (tv[f] == v || mesh.neighbor(t, f) >= 0) continue;
+      if ((tv[f] == v) | (mesh.neighbor(t, f) >= 0)) continue;  // (one branch, as above)
       const Vec3& a = mesh.rest(tv[kTetFace[f][0]]);
       Vec3 n = (mesh.rest(tv[kTetFace[f][1]]) - a).cross(mesh.rest(tv[kTetFace[f][2]]) - a);
       if (n.dot(mesh.rest(tv[f]) - a) > 0) n = -n;  // away from the tet's own fourth vertex

@@ -116,7 +116,7 @@ VertexFreedom vertexFreedom(const TetMesh& mesh, int v, Vec3* direction) {
     const TetVerts& tv = mesh.tet(t);
     const int i = localIndex(tv, v);
     for (int f = 0; f < 4; ++f) {
-      if (f == i || mesh.neighbor(t, f) >= 0) continue;
+      if ((f == i) | (mesh.neighbor(t, f) >= 0)) continue;  // (one branch, mostly taken)
       const Vec3& a = mesh.rest(tv[kTetFace[f][0]]);
       const Vec3 n = (mesh.rest(tv[kTetFace[f][1]]) - a).cross(mesh.rest(tv[kTetFace[f][2]]) - a);
       if (!(n.norm() > 0)) return VertexFreedom::kPinned;
