@@ -264,8 +264,11 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
   // v's edges are found through their far ends, each noted with its place by a stamp (a scan of
   // v's edges for every vertex of every tet had cost as much again).
   if (!vertices.empty()) inertia_valid_ = false;  // their masses change
+  // One more place than edges: where a tet's vertex that is not the far end of one of v's edges
+  // adds its volume, so that the loop below takes no branch on it (never read).
   std::vector<double>& volume = edge_volumes_;
-  volume.assign(edges.size(), 0.0);
+  const std::size_t sink = edges.size();
+  volume.assign(edges.size() + 1, 0.0);
   const std::size_t slots = mesh_->vertexSlots();
   growSlots(&edge_at_, slots, std::size_t{0});
   std::size_t first = 0;  // the first of v's edges in `edges`
@@ -282,8 +285,10 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
       for (int t : mesh_->vertexTets(v)) {
         const double tet_volume = tet_volume_[t];
         m += params_.density * tet_volume / 4.0;
-        for (int u : mesh_->tet(t))
-          if (u > v && edge_seen_[u] == edge_stamp_) volume[edge_at_[u]] += tet_volume;
+        for (int u : mesh_->tet(t)) {
+          const bool edge = (u > v) & (edge_seen_[u] == edge_stamp_);
+          volume[edge ? edge_at_[u] : sink] += tet_volume;
+        }
       }
     mass_[v] = m;
     first = last;
