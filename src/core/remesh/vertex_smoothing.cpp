@@ -72,9 +72,15 @@ struct SmoothingScratch {
   return scratch;
 }
 
-// The star's places from the worst tet to the best by their Q in q (the first of equals first).
-void sortByQuality(const std::vector<double>& q, std::vector<int>* order) {
-  std::sort(order->begin(), order->end(), [&](int a, int b) {
+// The star's three worst places by their Q in q first, worst first (the first of equals first);
+// the others after them in no particular order. The order is only the trials' guess of the tets
+// likeliest to stop them (see worstWith()): the three worst served as well as the whole star
+// sorted (79.49 M instructions on the 20k replay against 79.52 M; the worst alone 80.78 M, two
+// 79.75 M, four 79.51 M, six 79.62 M), and their selection mispredicts fewer branches than the
+// sort's (the queue 1.5% faster, 24 pinned pairs).
+void putWorstFirst(const std::vector<double>& q, std::vector<int>* order) {
+  const auto k = std::min<std::ptrdiff_t>(3, static_cast<std::ptrdiff_t>(order->size()));
+  std::partial_sort(order->begin(), order->begin() + k, order->end(), [&](int a, int b) {
     return q[a] < q[b] || (q[a] == q[b] && a < b);
   });
 }
@@ -185,7 +191,7 @@ bool smoothVertex(TetMesh* mesh, int v, double min_gain, ChangeRecord* record,
   std::vector<int>& order = scratch.order;
   order.resize(star.size());
   std::iota(order.begin(), order.end(), 0);
-  sortByQuality(star_q, &order);
+  putWorstFirst(star_q, &order);
   scratch.tets.resize(star.size());
   scratch.prepared.assign(star.size(), 0);
   for (int round = 0; round < 4; ++round) {
