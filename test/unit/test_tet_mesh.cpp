@@ -551,6 +551,9 @@ TEST(TetMesh, ReplacementChecksRemovedTetsAndNewFaces) {
   const int v = mesh.addVertex({{4, 0.5}, {0, -0.5}, {1, 1.0}}, nullptr);
   EXPECT_THROW(mesh.replaceTets({1}, {t1, {v, 1, 3, 2}}, nullptr), std::logic_error);
   unchanged();
+  // Both out, and three new tets on that face: shared three ways among the new tets alone.
+  EXPECT_THROW(mesh.replaceTets({0, 1}, {t0, t1, {v, 1, 3, 2}}, nullptr), std::logic_error);
+  unchanged();
   // Tet 1 out and a tet on its face in: the face is tet 1's no more, so it may be taken.
   ChangeRecord record;
   const auto ids = mesh.replaceTets({1}, {{v, 1, 3, 2}}, &record);

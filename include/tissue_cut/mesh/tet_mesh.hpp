@@ -284,14 +284,15 @@ class TetMesh {
   std::vector<std::array<int, 4>> neighbors_;
   std::vector<unsigned char> tet_alive_;
   std::vector<int> free_tets_;
-  // replaceTets()'s scratch: per tet slot, the stamp of the call removing it; the new faces,
-  // each with its place among them (4 x the new tet's place in `add` + the face), packed two
-  // ids to a word (sorted vertices a < b < c: {a b, c place}, whose order is the tuple's); per
-  // place, what lies across the face (a kept tet, or -2 - the place of a new tet's face, or -1:
-  // nothing).
+  // replaceTets()'s scratch: per tet slot, the stamp of the call removing it; per place among
+  // the new faces (4 x the new tet's place in `add` + the face), its sorted vertices, and at a
+  // face's first place how many places name it and the second one; the table of first places
+  // by the faces' hashes; per place, what lies across the face (a kept tet, or -2 - the place
+  // of a new tet's face, or -1: nothing).
   std::vector<unsigned> removing_;
   unsigned removing_stamp_ = 0;
-  std::vector<std::pair<std::uint64_t, std::uint64_t>> face_scratch_;
+  std::vector<std::array<int, 3>> face_keys_;
+  std::vector<int> face_count_, face_second_, face_table_;
   std::vector<int> face_across_;
   std::vector<int> merge_old_, merge_from_;  // mergeVertices()'s star and the tets moved
   std::vector<int> merge_ids_;               // and their new slots

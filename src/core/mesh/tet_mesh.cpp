@@ -506,15 +506,13 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
     removing_[t] = removing_stamp_;
   }
   auto removed = [this](int t) { return removing_[t] == removing_stamp_; };
-  // Packed two ids to a word (ids checked non-negative first): the pairs' own order is the
-  // order of (a, b, c, place), compared as two integers instead of field by field.
-  std::vector<std::pair<std::uint64_t, std::uint64_t>>& new_faces = face_scratch_;
-  auto pack = [](int x, int y) {
-    return std::uint64_t{static_cast<std::uint32_t>(x)} << 32 | static_cast<std::uint32_t>(y);
-  };
-  auto high = [](std::uint64_t w) { return static_cast<int>(w >> 32); };
-  auto low = [](std::uint64_t w) { return static_cast<int>(w & 0xffffffffu); };
-  new_faces.clear();
+  // The new faces, each at its place (4 x the tet's place in `add` + the face), grouped by a
+  // hash table of places (open addressing, at most half full): each face's first place holds
+  // how many places name it and the second one's place. (A sort of the faces had cost more,
+  // mostly in mispredicted comparisons.)
+  const std::size_t faces = 4 * add.size();
+  std::vector<FaceKey>& keys = face_keys_;
+  keys.resize(faces);
   for (std::size_t place = 0; place < add.size(); ++place) {
     const TetVerts& tv = add[place];
     for (int i = 0; i < 4; ++i) {
@@ -528,25 +526,36 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
       throw std::logic_error("TetMesh::replaceTets: tet (" + std::to_string(tv[0]) + ", " +
                              std::to_string(tv[1]) + ", " + std::to_string(tv[2]) + ", " +
                              std::to_string(tv[3]) + ") has no positive rest volume");
-    for (int f = 0; f < 4; ++f) {
-      const FaceKey k = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
-      new_faces.emplace_back(pack(k[0], k[1]), pack(k[2], static_cast<int>(4 * place) + f));
+    for (int f = 0; f < 4; ++f)
+      keys[4 * place + f] = sortedFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]]);
+  }
+  std::size_t bits = 4;
+  while ((std::size_t{1} << bits) < 2 * faces) ++bits;
+  const std::size_t mask = (std::size_t{1} << bits) - 1;
+  std::vector<int>& table = face_table_;
+  table.assign(mask + 1, -1);
+  std::vector<int>& count = face_count_;    // per first place: the places naming its face
+  std::vector<int>& second = face_second_;  // per first place: the second one
+  count.assign(faces, 0);
+  second.resize(faces);
+  for (std::size_t p = 0; p < faces; ++p) {
+    const FaceKey& k = keys[p];
+    std::size_t h = (FaceHash()(k) * 0x9E3779B97F4A7C15ull) >> (64 - bits);
+    while (table[h] >= 0 && !sameVertices(keys[table[h]], k)) h = (h + 1) & mask;
+    if (table[h] < 0) {
+      table[h] = static_cast<int>(p);
+      count[p] = 1;
+    } else {
+      if (++count[table[h]] == 2) second[table[h]] = static_cast<int>(p);
     }
   }
-  // By face, then place (all distinct: any sort gives this order).
-  std::sort(new_faces.begin(), new_faces.end());
-  // Each face once: how many tets would share it, and what each new tet will find across it
-  // (linkTet()'s search, done here once: the tet the count finds kept, or the other new one).
-  face_across_.assign(new_faces.size(), -1);
-  for (std::size_t i = 0; i < new_faces.size();) {
-    const std::uint64_t ab = new_faces[i].first;
-    const int c_key = high(new_faces[i].second);
-    const std::size_t first = i;
-    int count = 0;
-    for (; i < new_faces.size() && new_faces[i].first == ab && high(new_faces[i].second) == c_key;
-         ++i)
-      ++count;
-    const FaceKey key{high(ab), low(ab), c_key};
+  // Each face once, at its first place: how many tets would share it, and what each new tet
+  // will find across it (linkTet()'s search, done here once: the tet the count finds kept, or
+  // the other new one).
+  face_across_.assign(faces, -1);
+  for (std::size_t p = 0; p < faces; ++p) {
+    if (count[p] == 0) continue;  // a face met at an earlier place
+    const FaceKey& key = keys[p];
     int a = key[0], b = key[1], c = key[2];
     smallestStarFirst(&a, &b, &c);
     int kept = 0, across = -1;
@@ -556,13 +565,13 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
         ++kept;
         across = t;
       }
-    if (count + kept > 2)
+    if (count[p] + kept > 2)
       throw std::logic_error("TetMesh::replaceTets: face (" + std::to_string(key[0]) + ", " +
                              std::to_string(key[1]) + ", " + std::to_string(key[2]) +
-                             ") would be shared by " + std::to_string(count + kept) + " tets");
-    const int place0 = low(new_faces[first].second);
-    if (count == 2) {
-      const int place1 = low(new_faces[first + 1].second);
+                             ") would be shared by " + std::to_string(count[p] + kept) + " tets");
+    const int place0 = static_cast<int>(p);
+    if (count[p] == 2) {
+      const int place1 = second[p];
       face_across_[place0] = -2 - place1;
       face_across_[place1] = -2 - place0;
     } else {
