@@ -264,11 +264,12 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
   // v's edges are found through their far ends, each noted with its place by a stamp (a scan of
   // v's edges for every vertex of every tet had cost as much again).
   if (!vertices.empty()) inertia_valid_ = false;  // their masses change
-  // One more place than edges: where a tet's vertex that is not the far end of one of v's edges
-  // adds its volume, so that the loop below takes no branch on it (never read).
+  // Four more places than edges, one a corner of the tets: where a tet's vertex that is not the
+  // far end of one of v's edges adds its volume, so that the loop below takes no branch on it
+  // (never read; one a corner, so that those adds do not wait on each other).
   std::vector<double>& volume = edge_volumes_;
   const std::size_t sink = edges.size();
-  volume.assign(edges.size() + 1, 0.0);
+  volume.assign(edges.size() + 4, 0.0);
   const std::size_t slots = mesh_->vertexSlots();
   growSlots(&edge_at_, slots, std::size_t{0});
   std::size_t first = 0;  // the first of v's edges in `edges`
@@ -285,9 +286,11 @@ void MassSpring::updateMassesAndSprings(const std::vector<int>& vertices,
       for (int t : mesh_->vertexTets(v)) {
         const double tet_volume = tet_volume_[t];
         m += params_.density * tet_volume / 4.0;
-        for (int u : mesh_->tet(t)) {
+        const TetVerts& tv = mesh_->tet(t);
+        for (int k = 0; k < 4; ++k) {
+          const int u = tv[k];
           const bool edge = (u > v) & (edge_seen_[u] == edge_stamp_);
-          volume[edge ? edge_at_[u] : sink] += tet_volume;
+          volume[edge ? edge_at_[u] : sink + k] += tet_volume;
         }
       }
     mass_[v] = m;
