@@ -59,6 +59,14 @@ TetMesh bisectedBlock(std::mt19937* rng) {
 
 // Every slot, tet, adjacency, star order and the boundary count agree (ASSERTs: the first
 // difference stops the test, named with `what`).
+// The boundary faces through u, counted from the adjacency.
+int boundaryFacesThrough(const TetMesh& mesh, int u) {
+  int through = 0;
+  for (int t : mesh.vertexTets(u))
+    for (int f = 0; f < 4; ++f) through += mesh.tet(t)[f] != u && mesh.neighbor(t, f) < 0;
+  return through;
+}
+
 void expectSameMesh(const TetMesh& a, const TetMesh& b, const std::string& what) {
   ASSERT_EQ(a.tetSlots(), b.tetSlots()) << what;
   for (int t = 0; t < a.tetSlots(); ++t) {
@@ -69,8 +77,12 @@ void expectSameMesh(const TetMesh& a, const TetMesh& b, const std::string& what)
       ASSERT_EQ(a.neighbor(t, f), b.neighbor(t, f)) << what << ", tet " << t;
   }
   ASSERT_EQ(a.vertexSlots(), b.vertexSlots()) << what;
-  for (int u = 0; u < a.vertexSlots(); ++u)
+  for (int u = 0; u < a.vertexSlots(); ++u) {
     ASSERT_EQ(a.vertexTets(u), b.vertexTets(u)) << what << ", vertex " << u;
+    // Each one's kept count of boundary faces, as counted from its tets.
+    ASSERT_EQ(a.boundaryFacesAt(u), boundaryFacesThrough(a, u)) << what << ", vertex " << u;
+    ASSERT_EQ(b.boundaryFacesAt(u), boundaryFacesThrough(b, u)) << what << ", vertex " << u;
+  }
   ASSERT_EQ(a.numBoundaryFaces(), b.numBoundaryFaces()) << what;
 }
 

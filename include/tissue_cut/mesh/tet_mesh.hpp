@@ -198,6 +198,9 @@ class TetMesh {
   int faceTet(int a, int b, int c, int except = -1) const;
   /// Number of boundary faces (faces with no neighbour).
   int numBoundaryFaces() const { return num_boundary_faces_; }
+  /// Number of boundary faces through vertex v (kept with every change: a boundary test of a
+  /// vertex is one read instead of a walk over its star).
+  int boundaryFacesAt(int v) const { return boundary_faces_[v]; }
   /// Unique edges of live tets as (smaller id, larger id).
   std::vector<std::pair<int, int>> edges() const;
   /// Tet 4-tuples of live tets (#T by 4) and the slot of each row; V rows are vertex slots.
@@ -273,6 +276,12 @@ class TetMesh {
   int allocateVertex();
   // Measures the rest Q of the tet now in slot t.
   void measureTet(int t);
+  // The boundary-face counts of a face's three vertices, changed by `delta`.
+  void countBoundaryFace(int a, int b, int c, int delta) {
+    boundary_faces_[a] += delta;
+    boundary_faces_[b] += delta;
+    boundary_faces_[c] += delta;
+  }
 
   std::vector<Vec3> rest_, current_, velocity_;
   std::vector<unsigned char> vertex_alive_;
@@ -307,6 +316,7 @@ class TetMesh {
   std::vector<std::array<int, 4>> move_neighbors_;
   std::vector<std::array<double, 2>> move_measures_;  // rest quality and volume, for a rename
   int num_vertices_ = 0, num_tets_ = 0, num_boundary_faces_ = 0, reoriented_ = 0;
+  std::vector<int> boundary_faces_;  // per vertex slot: boundaryFacesAt()
 };
 
 /// Signed volume of the tet (a, b, c, d): positive when d sees (a, b, c) counter-clockwise [m^3].

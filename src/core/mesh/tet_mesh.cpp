@@ -223,6 +223,7 @@ TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
   assignSlots(&velocity_, nv, Vec3::Zero());
   assignSlots(&vertex_alive_, nv, static_cast<unsigned char>(1));
   assignSlots(&vertex_tets_, nv);
+  assignSlots(&boundary_faces_, nv, 0);
   num_vertices_ = nv;
 
   const int nt = static_cast<int>(T.rows());
@@ -274,7 +275,10 @@ TetMesh::TetMesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
     }
   }
   for (const auto& kv : open)
-    if (kv.second.first >= 0) ++num_boundary_faces_;
+    if (kv.second.first >= 0) {
+      ++num_boundary_faces_;
+      countBoundaryFace(kv.first[0], kv.first[1], kv.first[2], 1);
+    }
 }
 
 std::vector<int> TetMesh::edgeTets(int a, int b) const {
@@ -372,6 +376,7 @@ int TetMesh::allocateVertex() {
   velocity_.emplace_back();
   vertex_alive_.push_back(0);
   vertex_tets_.emplace_back();
+  boundary_faces_.push_back(0);
   return vertexSlots() - 1;
 }
 
@@ -438,11 +443,13 @@ void TetMesh::linkTet(int t) {
     if (u < 0) {
       neighbors_[t][f] = -1;
       ++num_boundary_faces_;
+      countBoundaryFace(a, b, c, 1);
     } else {
       int g = localFace(tets_[u], a, b, c);
       neighbors_[t][f] = u;
       neighbors_[u][g] = t;
       --num_boundary_faces_;
+      countBoundaryFace(a, b, c, -1);
     }
   }
 }
@@ -455,14 +462,17 @@ void TetMesh::unlinkTets(const std::vector<int>& remove) {
   verts.clear();
   nextStamp(&vertex_mark_, &vertex_mark_call_, vertex_tets_.size());
   for (int t : remove) {
+    const TetVerts& tv = tets_[t];
     for (int f = 0; f < 4; ++f) {
       const int u = neighbors_[t][f];
       if (u < 0) {
         --num_boundary_faces_;
+        countBoundaryFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]], -1);
       } else if (!removed(u)) {
         for (int g = 0; g < 4; ++g)
           if (neighbors_[u][g] == t) neighbors_[u][g] = -1;
         ++num_boundary_faces_;
+        countBoundaryFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]], 1);
       }
       neighbors_[t][f] = -1;
     }
@@ -604,6 +614,7 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
       if (across == -1 || (other >= 0 && other > static_cast<int>(place))) {
         neighbors_[t][f] = -1;
         ++num_boundary_faces_;
+        countBoundaryFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]], 1);
         continue;
       }
       const int u = other >= 0 ? ids[other] : across;
@@ -613,6 +624,7 @@ void TetMesh::replaceTets(const std::vector<int>& remove, const std::vector<TetV
       neighbors_[t][f] = u;
       neighbors_[u][g] = t;
       --num_boundary_faces_;
+      countBoundaryFace(tv[kTetFace[f][0]], tv[kTetFace[f][1]], tv[kTetFace[f][2]], -1);
     }
     ids.push_back(t);
   }
@@ -733,9 +745,19 @@ void TetMesh::restack(const std::vector<int>& star, int v, int copy, ChangeRecor
       if (opens) {
         move_neighbors_[i][f] = -1;
         num_boundary_faces_ += 2;
+        countBoundaryFace(a, b, c, 2);  // both sides, v's until the rename below
       }
     }
   }
+  // The star's boundary faces through v (those just opened on its side too) hold the copy
+  // after the rename.
+  if (copy != v)
+    for (int i = 0; i < n; ++i)
+      for (int f = 0; f < 4; ++f)
+        if (move_neighbors_[i][f] < 0 && move_tets_[i][f] != v) {
+          --boundary_faces_[v];
+          ++boundary_faces_[copy];
+        }
   // The star's vertices (and the copy) once each, found by a mark: each one's list is mended on
   // its own, so their order does not matter (a sort had cost more than the mending).
   std::vector<int>& verts = move_vertices_;
@@ -920,6 +942,13 @@ std::string TetMesh::validate() const {
     }
   }
   if (boundary != num_boundary_faces_) return "boundary face count is out of date";
+  for (int v = 0; v < vertexSlots(); ++v) {
+    const auto fan = fans.find(v);
+    const int through = fan == fans.end() ? 0 : static_cast<int>(fan->second.size());
+    if (boundary_faces_[v] != through)
+      return "vertex " + std::to_string(v) + " keeps " + std::to_string(boundary_faces_[v]) +
+             " boundary faces through it where it has " + std::to_string(through);
+  }
   for (const auto& [e, n] : directed) {
     const int a = static_cast<int>(e >> 32), b = static_cast<int>(e & 0xffffffff);
     if (n != 1)

@@ -259,12 +259,13 @@ void CollapseQueue::boundaryFacesAround(int v, int removed, int survivor, const 
     if (had_removed && had_survivor) return;
     out->push_back({mesh_->rest(c[0]), mesh_->rest(c[1]), mesh_->rest(c[2])});
   };
-  for (int t : mesh_->vertexTets(v)) {
-    if (flip && std::find(flip->removed.begin(), flip->removed.end(), t) != flip->removed.end())
-      continue;
-    for (int f = 0; f < 4; ++f)
-      if (mesh_->tet(t)[f] != v && mesh_->neighbor(t, f) < 0) add(mesh_->tet(t), f);
-  }
+  if (mesh_->boundaryFacesAt(v) > 0)  // (else its star has none)
+    for (int t : mesh_->vertexTets(v)) {
+      if (flip && std::find(flip->removed.begin(), flip->removed.end(), t) != flip->removed.end())
+        continue;
+      for (int f = 0; f < 4; ++f)
+        if (mesh_->tet(t)[f] != v && mesh_->neighbor(t, f) < 0) add(mesh_->tet(t), f);
+    }
   if (!flip) return;
   // The flip's new tets: their faces not shared between them are the ones the removed tets
   // had outside; those the removed tets had on the boundary are the boundary faces now.

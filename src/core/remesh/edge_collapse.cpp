@@ -23,6 +23,7 @@ bool contains(const TetVerts& tv, int v) {
 double boundaryDeviation(const TetMesh& mesh, int removed, int survivor, double length_floor) {
   const Vec3 move = mesh.rest(survivor) - mesh.rest(removed);
   double worst = 0.0;
+  if (mesh.boundaryFacesAt(removed) == 0) return worst;  // (no face to look at)
   for (int t : mesh.vertexTets(removed)) {
     // Tets holding both ends count too: their boundary faces give way to faces through the
     // survivor.
@@ -74,6 +75,7 @@ double materialAngle(const TetMesh& mesh, int u, int v) {
 template <typename Known, typename Add>
 void findFolds(const TetMesh& mesh, int v, const Known& known, const Add& add) {
   // Each boundary face at v gives its outward unit normal to its two edges through v.
+  if (mesh.boundaryFacesAt(v) == 0) return;  // (no face to look at)
   std::vector<std::pair<int, Vec3>>& edge_normals = threadEdgeNormals();
   edge_normals.clear();
   for (int t : mesh.vertexTets(v)) {

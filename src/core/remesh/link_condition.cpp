@@ -138,18 +138,11 @@ const char* toString(CollapseRefusal refusal) {
   return "unknown";
 }
 
-bool isBoundaryVertex(const TetMesh& mesh, int v) {
-  for (int t : mesh.vertexTets(v)) {
-    const int i = localIndex(mesh.tet(t), v);
-    // The tet's three faces through v at once: one branch a tet, seldom taken.
-    bool open = false;
-    for (int f = 0; f < 4; ++f) open |= (f != i) & (mesh.neighbor(t, f) < 0);
-    if (open) return true;
-  }
-  return false;
-}
+bool isBoundaryVertex(const TetMesh& mesh, int v) { return mesh.boundaryFacesAt(v) > 0; }
 
 bool isBoundaryEdge(const TetMesh& mesh, int a, int b) {
+  // A boundary face through the edge is one through each end.
+  if (mesh.boundaryFacesAt(a) == 0 || mesh.boundaryFacesAt(b) == 0) return false;
   for (int t : mesh.vertexTets(a))  // the edge's tets, without a list of them
     if (localIndex(mesh.tet(t), b) >= 0 && openAtEdge(mesh, t, a, b)) return true;
   return false;

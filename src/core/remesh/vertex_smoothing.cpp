@@ -117,6 +117,7 @@ Vec3 project(VertexFreedom freedom, const Vec3& dir, const Vec3& from, const Vec
 }  // namespace
 
 VertexFreedom vertexFreedom(const TetMesh& mesh, int v, Vec3* direction) {
+  if (mesh.boundaryFacesAt(v) == 0) return VertexFreedom::kInterior;  // (no face to look at)
   InlineVector<Vec3, 3> planes;  // a third one pins v
   for (int t : mesh.vertexTets(v)) {
     const TetVerts& tv = mesh.tet(t);
