@@ -2029,6 +2029,7 @@ bool Cutter::mayJoin(int u, int v) const {
 
 bool Cutter::woundFacing(int v, const Vec3& normal) const {
   // True when a boundary face at v lies within 30 degrees of the plane with this normal.
+  if (mesh_->boundaryFacesAt(v) == 0) return false;  // (no face to look at)
   for (int t : mesh_->vertexTets(v)) {
     const TetVerts& tv = mesh_->tet(t);
     for (int f = 0; f < 4; ++f) {

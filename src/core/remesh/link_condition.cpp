@@ -86,7 +86,7 @@ void linkPart(const TetMesh& mesh, int v, const Kept& kept, bool omega_kept,
     if (ky && kz) edges->push_back(sorted(y, z));
     if (kx && kz) edges->push_back(sorted(x, z));
     if (kx && ky && kz) triangles->push_back(sorted(x, y, z));
-    if (!omega_kept) continue;
+    if (!omega_kept || mesh.boundaryFacesAt(v) == 0) continue;  // (no face to look at)
     for (int f = 0; f < 4; ++f) {
       if (f == i || mesh.neighbor(t, f) >= 0) continue;
       // Boundary face v p q: the cone ω v p q puts ω p q, ω p and ω q into Lk(v).
@@ -103,13 +103,6 @@ void linkPart(const TetMesh& mesh, int v, const Kept& kept, bool omega_kept,
   }
   makeSet(edges);
   makeSet(triangles);
-}
-
-bool hasBoundaryFaceAt(const TetMesh& mesh, int t, int v) {
-  const TetVerts& tv = mesh.tet(t);
-  for (int f = 0; f < 4; ++f)
-    if (tv[f] != v && mesh.neighbor(t, f) < 0) return true;
-  return false;
 }
 
 // The thread's scratch, looked up once a check (linkConditionHolds): in a shared library each
@@ -166,12 +159,10 @@ bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
   // the parts of the links on the common vertices are built.
   s.begin(mesh.vertexSlots());
   const unsigned neighbour = s.now, both = s.now + 1, in_ab = s.now + 2;
-  bool a_boundary = false, b_boundary = false;
-  for (int t : mesh.vertexTets(a)) {
+  const bool a_boundary = mesh.boundaryFacesAt(a) > 0, b_boundary = mesh.boundaryFacesAt(b) > 0;
+  for (int t : mesh.vertexTets(a))
     for (int v : mesh.tet(t))
       if (v != a) s.mark[v] = neighbour;
-    a_boundary = a_boundary || hasBoundaryFaceAt(mesh, t, a);
-  }
   s.common.clear();
   for (int t : mesh.vertexTets(b)) {
     for (int v : mesh.tet(t))
@@ -179,7 +170,6 @@ bool linkConditionHolds(const TetMesh& mesh, int a, int b) {
         s.mark[v] = both;
         s.common.push_back(v);
       }
-    b_boundary = b_boundary || hasBoundaryFaceAt(mesh, t, b);
   }
   const bool omega_common = a_boundary && b_boundary;
   // Vertices: Lk(ab) has the other two vertices of each tet on ab, and ω when ab lies on a
