@@ -100,6 +100,11 @@ inline int localIndex(const TetVerts& t, int v) {
   return at != 0 ? __builtin_ctz(at) : -1;
 }
 
+/// Whether tet t holds vertex v (the four places compared at once, as in localIndex()).
+inline bool contains(const TetVerts& t, int v) {
+  return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v);
+}
+
 /// Hash of a face named by its three vertex ids (sorted, as the maps of faces keep them).
 struct FaceHash {
   std::size_t operator()(const std::array<int, 3>& k) const {

@@ -67,10 +67,7 @@ bool projectsInside(const Vec3& x, double d, const PreparedTriangle& prepared) {
 }
 
 bool pointNearTriangle(const Vec3& x, const PreparedTriangle& prepared, double distance) {
-  if (!(prepared.len > 0)) return false;
-  const double d = prepared.n.dot(x - prepared.t[0]) / prepared.len;
-  if (std::abs(d) > distance) return false;
-  return projectsInside(x, d, prepared);
+  return PointOverTriangle(x, prepared).near(distance);
 }
 
 PreparedSegment::PreparedSegment(const Vec3& from, const Vec3& to)

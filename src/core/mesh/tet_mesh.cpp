@@ -20,10 +20,6 @@ using FaceKey = std::array<int, 3>;
 // The room a new vertex's list of tets starts with.
 constexpr std::size_t kNewStarRoom = 16;
 
-bool contains(const TetVerts& t, int v) {
-  return (t[0] == v) | (t[1] == v) | (t[2] == v) | (t[3] == v);
-}
-
 // Local face of tet t made of vertices {a, b, c}: the one opposite the fourth vertex (the first
 // place holding none of them; -1 when there is none). Found as localIndex() finds its place.
 int localFace(const TetVerts& t, int a, int b, int c) {

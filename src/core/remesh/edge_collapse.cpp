@@ -14,10 +14,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-bool contains(const TetVerts& tv, int v) {
-  return (tv[0] == v) | (tv[1] == v) | (tv[2] == v) | (tv[3] == v);
-}
-
 // How far the boundary faces that move with `removed` would leave their planes, relative to each
 // face's longest edge.
 double boundaryDeviation(const TetMesh& mesh, int removed, int survivor, double length_floor) {

@@ -76,6 +76,8 @@ void linkPart(const TetMesh& mesh, int v, const Kept& kept, bool omega_kept,
               std::vector<Edge>* edges, std::vector<Triangle>* triangles) {
   edges->clear();
   triangles->clear();
+  // The cones over v's boundary faces, where ω is kept and v has any.
+  const bool cones = omega_kept && mesh.boundaryFacesAt(v) > 0;
   for (int t : mesh.vertexTets(v)) {
     const TetVerts& tv = mesh.tet(t);
     const int i = localIndex(tv, v);
@@ -86,7 +88,7 @@ void linkPart(const TetMesh& mesh, int v, const Kept& kept, bool omega_kept,
     if (ky && kz) edges->push_back(sorted(y, z));
     if (kx && kz) edges->push_back(sorted(x, z));
     if (kx && ky && kz) triangles->push_back(sorted(x, y, z));
-    if (!omega_kept || mesh.boundaryFacesAt(v) == 0) continue;  // (no face to look at)
+    if (!cones) continue;
     for (int f = 0; f < 4; ++f) {
       if (f == i || mesh.neighbor(t, f) >= 0) continue;
       // Boundary face v p q: the cone ω v p q puts ω p q, ω p and ω q into Lk(v).
