@@ -85,6 +85,10 @@ void Tissue::reset() {
   CutterOptions cut;
   cut.max_jump = config_.cut.max_jump;
   cutter_ = std::make_unique<Cutter>(&mesh_, cut);
+  // Its tet index was just built where the vertices are, and nothing moves them before the
+  // first step's physics, which tells it how far: the first tick need not scan every vertex for
+  // drift (0.16-0.31 ms on the 20k organ, as a cutter never told does).
+  cutter_->tissueMoved(0.0);
   blade_filter_ = BladeFilter(bladeFilterParams(config_));
   physics_ = std::make_unique<MassSpring>(&mesh_, massSpringParams(config_));
   if (config_.physics.enabled) physics_->prepare(1.0 / config_.rate);

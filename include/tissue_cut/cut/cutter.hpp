@@ -86,6 +86,9 @@ struct CutCounts {
   /// Ticks that reached at most one kept vertex and tested only the kept features they reached
   /// (that vertex, edges, front faces), not swept (skip_quiet).
   long long feature_ticks = 0;
+  /// Ticks whose look for drift in the tet index scanned every vertex (the tissue's moves since
+  /// the last scan could have taken one past the index's margin, or were not told).
+  long long grid_scans = 0;
   std::array<int, 7> by_kind{};  ///< replacements per SplitKind
 };
 

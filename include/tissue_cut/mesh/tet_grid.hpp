@@ -67,6 +67,8 @@ class TetGrid {
   /// known); the vertices are scanned only when the moves since the last scan could have taken
   /// one past the margin (a vertex moved otherwise is refiled by an update()).
   void refresh(const TetMesh& mesh, double moved, std::vector<int>* refiled);
+  /// How many calls of refresh() scanned the vertices (since construction).
+  long long scans() const { return scans_; }
   /// True when dead entries pile up (twice the entries of the last build): time to rebuild.
   bool cluttered() const { return entries_ > 2 * entries_at_build_ + 1024; }
   bool empty() const { return cells_.empty(); }
@@ -119,6 +121,7 @@ class TetGrid {
   // How far a vertex may be from where it was filed, as far as refresh() knows: the farthest at
   // the last scan, plus the moves since.
   double drift_bound_ = 0.0;
+  long long scans_ = 0;
   // Per vertex slot, where it was filed (see build()).
   std::vector<Vec3> built_positions_;
   // update()'s scratch: the vertices it files anew.

@@ -2087,7 +2087,9 @@ std::string Cutter::step(const std::optional<BladeSegment>& blade, ChangeRecord*
   // pile up (rebuilds on drift took 4-6 ms a tick on the sagging 20k organ).
   if (blade || previous_) {
     refiled_.clear();
+    const long long scans = grid_.scans();
     grid_.refresh(*mesh_, told_motion_ ? moved_ : HUGE_VAL, &refiled_);
+    counts_.grid_scans += grid_.scans() - scans;
     moved_ = 0.0;
     if (grid_.cluttered()) {
       rebuildGrid();

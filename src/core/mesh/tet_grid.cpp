@@ -128,6 +128,7 @@ void TetGrid::refresh(const TetMesh& mesh, double moved, std::vector<int>* refil
   if (cells_.empty()) return;
   drift_bound_ += moved >= 0.0 ? moved : HUGE_VAL;  // not known (or NaN): anything may have moved
   if (!(drift_bound_ > margin_)) return;            // no vertex can be past the margin yet
+  ++scans_;
   const double limit = margin_ * margin_;
   const int n = std::min<int>(mesh.vertexSlots(), static_cast<int>(built_positions_.size()));
   const Vec3* now = mesh.currentPositions().data();
