@@ -16,7 +16,6 @@ import argparse
 import hashlib
 import json
 import os
-import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -50,14 +49,14 @@ def main():
     os.makedirs(bench, exist_ok=True)
     path = os.path.join(bench, 'incision.csv')
     if not os.path.exists(path):
-        subprocess.run([sys.executable, os.path.join(ROOT, 'scripts', 'make_path.py'), path] +
-                       bench_table.PATH_ARGS, check=True, stdout=subprocess.DEVNULL)
+        bench_table.run([sys.executable, os.path.join(ROOT, 'scripts', 'make_path.py'), path] +
+                        bench_table.PATH_ARGS)
     replays = []
     for n in a.sizes:
         prefix = os.path.join(bench, 'organ%d' % n)
         if not os.path.exists(prefix + '.ele'):
-            subprocess.run([sys.executable, os.path.join(ROOT, 'meshes', 'src', 'make_organ.py'),
-                            prefix, '--tets', str(n)], check=True, stdout=subprocess.DEVNULL)
+            bench_table.run([sys.executable, os.path.join(ROOT, 'meshes', 'src', 'make_organ.py'),
+                             prefix, '--tets', str(n)])
         if n <= 20000:
             replays += [(n, 1), (n, 2)]
         replays.append((n, 0))  # 0: no physics
@@ -77,7 +76,7 @@ def main():
                stats_out]
         if not threads:
             cmd.append('--no-physics')
-        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        bench_table.run(cmd)
         with open(mesh_out, 'rb') as f:
             mesh_md5 = md5(f.read())
         with open(stats_out) as f:
